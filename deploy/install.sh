@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# Brings a Debian 12 machine (as root) to a working hapticd checkout: Debian's build
+# and library packages, then a Python virtual environment in .venv/. Idempotent, and
+# fast when everything is already there: apt runs only for what is missing.
+set -euo pipefail
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+
+packages=(
+  build-essential cmake ninja-build g++ pkg-config git
+  libasio-dev libprotobuf-dev protobuf-compiler libembree-dev libeigen3-dev
+  libgtest-dev libgmock-dev libbenchmark-dev rapidjson-dev libfmt-dev libssl-dev
+  python3 python3-venv python3-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "install: apt packages: ${missing[*]}" >&2
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+# Debian's own Python, so the venv does not depend on whatever else is on PATH.
+venv="$repo/.venv"
+requirements="$repo/deploy/requirements.txt"
+stamp="$venv/.requirements.sha256"
+want="$(sha256sum "$requirements" | cut -d' ' -f1)"
+if [[ ! -x "$venv/bin/python" ]] || [[ "$(cat "$stamp" 2>/dev/null)" != "$want" ]]; then
+  echo "install: python environment in .venv/" >&2
+  /usr/bin/python3 -m venv "$venv"
+  "$venv/bin/pip" install --quiet --disable-pip-version-check -r "$requirements"
+  echo "$want" > "$stamp"
+fi

@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Runs every hapticd test from a bare checkout: setup, build, the GoogleTest suites,
+# the same suites under AddressSanitizer and UndefinedBehaviorSanitizer, the
+# conformance cases, and the end-to-end tests.
+set -euo pipefail
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$repo"
+export HAPTICD_SHARED="${HAPTICD_SHARED:-$(cd "$repo/.." && pwd)/shared}"
+
+bash deploy/install.sh
+bash deploy/build.sh normal
+bash deploy/build.sh sanitize
+
+echo "== unit tests"
+ctest --test-dir build --output-on-failure -j 2 --timeout 300
+echo "== unit tests under ASan+UBSan"
+ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+  ctest --test-dir build/sanitize --output-on-failure -j 2 --timeout 600
+echo "== conformance"
+python3 "$HAPTICD_SHARED/conformance/check.py" --runner build/bin/hapticd-query \
+  "$HAPTICD_SHARED"/conformance/public/*.jsonl
+echo "== end-to-end tests"
+.venv/bin/python -m pytest -q tests

@@ -1,0 +1,124 @@
+#include "server/conformance/query_ops.h"
+
+#include <array>
+
+#include <fmt/format.h>
+
+#include "server/geometry/aabb.h"
+#include "server/geometry/box_box.h"
+#include "server/geometry/convex_convex.h"
+#include "server/geometry/segment_triangle.h"
+#include "server/geometry/sphere_sphere.h"
+#include "server/geometry/triangle_triangle.h"
+
+namespace hapticd::conformance {
+namespace {
+
+namespace g = hapticd::geometry;
+
+void WriteTriangleHit(const g::TriangleHit& hit, ResultWriter& result) {
+  result.Bool("hit", hit.hit);
+  if (!hit.hit) return;
+  result.Number("t", hit.t);
+  result.Number("u", hit.u);
+  result.Number("v", hit.v);
+}
+
+g::Sphere ReadSphere(const JsonAt& at) {
+  return {ReadVector3(at["center"]), ReadNonNegative(at["radius"])};
+}
+
+g::Aabb ReadAabb(const JsonAt& at) {
+  const g::Aabb box{ReadVector3(at["min"]), ReadVector3(at["max"])};
+  for (int axis = 0; axis < 3; ++axis) {
+    if (box.min[axis] > box.max[axis]) {
+      throw CaseError(fmt::format("{}.min[{}] = {} exceeds {}.max[{}] = {}", at.path, axis,
+                                  box.min[axis], at.path, axis, box.max[axis]));
+    }
+  }
+  return box;
+}
+
+g::Box ReadBox(const JsonAt& at) {
+  g::Box box;
+  box.center = ReadVector3(at["center"]);
+  box.rotation = ReadRotation(at["rotation"]);
+  const JsonAt half = at["half_extents"];
+  box.half_extents = ReadVector3(half);
+  for (int axis = 0; axis < 3; ++axis) ReadNonNegative(half[axis]);
+  return box;
+}
+
+std::vector<Vector3> ReadConvexPoints(const JsonAt& at) {
+  std::vector<Vector3> points = ReadPoints(at["points"]);
+  if (points.empty()) throw CaseError(at.path + ".points is empty");
+  return points;
+}
+
+void RayTriangle(const JsonAt& args, ResultWriter& result) {
+  const Vector3 origin = ReadVector3(args["origin"]);
+  const Vector3 dir = ReadDirection(args["dir"]);
+  const Triangle tri = ReadTriangle(args["tri"]);
+  WriteTriangleHit(g::IntersectRayTriangleWatertight(origin, dir, tri), result);
+}
+
+void SegmentTriangle(const JsonAt& args, ResultWriter& result) {
+  const Vector3 p = ReadVector3(args["p"]);
+  const Vector3 q = ReadVector3(args["q"]);
+  if (p == q) throw CaseError("args.p equals args.q: the segment has zero length");
+  const Triangle tri = ReadTriangle(args["tri"]);
+  WriteTriangleHit(g::IntersectSegmentTriangleWatertight(p, q, tri), result);
+}
+
+void TriangleTriangle(const JsonAt& args, ResultWriter& result) {
+  const Triangle a = ReadTriangle(args["a"]);
+  const Triangle b = ReadTriangle(args["b"]);
+  result.Bool("intersect", g::TrianglesIntersect(a, b));
+}
+
+void SphereSphere(const JsonAt& args, ResultWriter& result) {
+  const g::SphereSphereResult r = g::CollideSpheres(ReadSphere(args["a"]), ReadSphere(args["b"]));
+  result.Bool("intersect", r.intersect);
+  result.Number("distance", r.distance);
+}
+
+void AabbAabb(const JsonAt& args, ResultWriter& result) {
+  result.Bool("intersect", g::AabbsOverlap(ReadAabb(args["a"]), ReadAabb(args["b"])));
+}
+
+void ObbObb(const JsonAt& args, ResultWriter& result) {
+  result.Bool("intersect", g::BoxesOverlap(ReadBox(args["a"]), ReadBox(args["b"])));
+}
+
+void ConvexConvex(const JsonAt& args, ResultWriter& result) {
+  const g::ConvexConvexResult r =
+      g::CollideConvex(ReadConvexPoints(args["a"]), ReadConvexPoints(args["b"]));
+  result.Bool("intersect", r.intersect);
+  result.Number("distance", r.distance);
+  result.Vector("normal", r.normal);
+  result.Vector("point_a", r.point_a);
+  result.Vector("point_b", r.point_b);
+}
+
+struct NamedOp {
+  std::string_view name;
+  QueryOp op;
+};
+
+constexpr std::array kOps = {
+    NamedOp{"ray_triangle", RayTriangle},     NamedOp{"segment_triangle", SegmentTriangle},
+    NamedOp{"triangle_triangle", TriangleTriangle}, NamedOp{"sphere_sphere", SphereSphere},
+    NamedOp{"aabb_aabb", AabbAabb},           NamedOp{"obb_obb", ObbObb},
+    NamedOp{"convex_convex", ConvexConvex},
+};
+
+}  // namespace
+
+QueryOp FindQueryOp(std::string_view name) {
+  for (const NamedOp& entry : kOps) {
+    if (entry.name == name) return entry.op;
+  }
+  return nullptr;
+}
+
+}  // namespace hapticd::conformance

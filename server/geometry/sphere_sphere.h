@@ -1,0 +1,35 @@
+#pragma once
+
+// Sphere-sphere contact: intersection, signed distance, normal and witness points.
+// Closed balls: spheres that touch intersect, and the intersect decision is exact.
+
+#include "server/geometry/types.h"
+
+namespace hapticd::geometry {
+
+struct SphereSphereResult {
+  // True when the closed balls share a point (touching counts). Decided exactly.
+  bool intersect = false;
+  // Signed: > 0 the gap between the surfaces, < 0 minus the penetration depth
+  // (the length of the shortest translation that separates them, ra + rb - |cb - ca|).
+  double distance = 0;
+  // Unit, from a towards b: translating b by -distance * normal makes them touch.
+  Vector3 normal = Vector3::UnitX();
+  // point_a: the point of a nearest b (deepest into b when they overlap); point_b
+  // likewise. |point_b - point_a| == |distance| up to rounding.
+  Vector3 point_a = Vector3::Zero();
+  Vector3 point_b = Vector3::Zero();
+};
+
+// Collides two spheres given in one frame. Preconditions: finite centres, radii >= 0.
+// Concentric spheres have no preferred direction: the normal is then +x, by
+// convention, and distance = -(ra + rb). Non-finite input gives unspecified values,
+// never a crash.
+SphereSphereResult CollideSpheres(const Sphere& a, const Sphere& b);
+
+// Exact sign of |cb - ca|^2 - (ra + rb)^2: -1 or 0 when the closed balls intersect.
+// The same preconditions; the answer is right for every finite input whose squares
+// neither overflow nor underflow (magnitudes within about 1e-140..1e140).
+int CompareCenterDistanceToRadiusSum(const Sphere& a, const Sphere& b);
+
+}  // namespace hapticd::geometry
