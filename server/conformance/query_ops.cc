@@ -1,12 +1,16 @@
 #include "server/conformance/query_ops.h"
 
 #include <array>
+#include <memory>
+#include <stdexcept>
 
 #include <fmt/format.h>
 
 #include "server/geometry/aabb.h"
 #include "server/geometry/box_box.h"
+#include "server/geometry/bvh.h"
 #include "server/geometry/convex_convex.h"
+#include "server/geometry/mesh_queries.h"
 #include "server/geometry/segment_triangle.h"
 #include "server/geometry/sphere_sphere.h"
 #include "server/geometry/triangle_triangle.h"
@@ -55,6 +59,36 @@ std::vector<Vector3> ReadConvexPoints(const JsonAt& at) {
   return points;
 }
 
+// An inline mesh; TriangleMesh validates indices and drops zero-area triangles.
+g::MeshBvh ReadMesh(const JsonAt& at) {
+  std::vector<Vector3> vertices = ReadPoints(at["vertices"]);
+  const JsonAt triangles = at["triangles"];
+  std::vector<g::TriangleMesh::TriangleIndices> indices(triangles.size());
+  for (int t = 0; t < triangles.size(); ++t) {
+    const JsonAt corners = triangles[t];
+    if (corners.size() != 3) {
+      throw CaseError(fmt::format("{} must be [i, j, k]; it has {} elements", corners.path, corners.size()));
+    }
+    for (int k = 0; k < 3; ++k) {
+      if (!corners[k].value.IsInt()) throw CaseError(corners[k].path + " must be an integer index");
+      indices[t][k] = corners[k].value.GetInt();
+    }
+  }
+  try {
+    return g::MeshBvh(std::make_shared<const g::TriangleMesh>(std::move(vertices), std::move(indices)));
+  } catch (const std::invalid_argument& e) {
+    throw CaseError(fmt::format("{}: {}", at.path, e.what()));
+  }
+}
+
+// A segment p -> q of non-zero length.
+std::pair<Vector3, Vector3> ReadSegment(const JsonAt& args) {
+  const Vector3 p = ReadVector3(args["p"]);
+  const Vector3 q = ReadVector3(args["q"]);
+  if (p == q) throw CaseError("args.p equals args.q: the segment has zero length");
+  return {p, q};
+}
+
 void RayTriangle(const JsonAt& args, ResultWriter& result) {
   const Vector3 origin = ReadVector3(args["origin"]);
   const Vector3 dir = ReadDirection(args["dir"]);
@@ -63,9 +97,7 @@ void RayTriangle(const JsonAt& args, ResultWriter& result) {
 }
 
 void SegmentTriangle(const JsonAt& args, ResultWriter& result) {
-  const Vector3 p = ReadVector3(args["p"]);
-  const Vector3 q = ReadVector3(args["q"]);
-  if (p == q) throw CaseError("args.p equals args.q: the segment has zero length");
+  const auto [p, q] = ReadSegment(args);
   const Triangle tri = ReadTriangle(args["tri"]);
   WriteTriangleHit(g::IntersectSegmentTriangleWatertight(p, q, tri), result);
 }
@@ -100,6 +132,32 @@ void ConvexConvex(const JsonAt& args, ResultWriter& result) {
   result.Vector("point_b", r.point_b);
 }
 
+void SegmentMesh(const JsonAt& args, ResultWriter& result) {
+  const g::MeshBvh mesh = ReadMesh(args["mesh"]);
+  const auto [p, q] = ReadSegment(args);
+  const g::SegmentMeshHit hit = g::FindFirstSegmentHit(mesh, p, q);
+  result.Bool("hit", hit.hit);
+  if (!hit.hit) return;
+  result.Number("t", hit.t);
+  result.Int("triangle", hit.triangle);
+}
+
+void ClosestPointMesh(const JsonAt& args, ResultWriter& result) {
+  const g::MeshBvh mesh = ReadMesh(args["mesh"]);
+  const g::MeshClosestPoint closest = g::FindClosestPointOnMesh(mesh, ReadVector3(args["point"]));
+  result.Number("distance", closest.distance);
+  result.Vector("point", closest.point);
+}
+
+void PointInsideMesh(const JsonAt& args, ResultWriter& result) {
+  const g::MeshBvh mesh = ReadMesh(args["mesh"]);
+  if (!mesh.mesh().is_closed()) {
+    throw CaseError("args.mesh is not closed: some edge is not shared by exactly two "
+                    "consistently oriented triangles, so it has no inside");
+  }
+  result.Bool("inside", g::IsPointInsideMesh(mesh, ReadVector3(args["point"])));
+}
+
 struct NamedOp {
   std::string_view name;
   QueryOp op;
@@ -109,7 +167,8 @@ constexpr std::array kOps = {
     NamedOp{"ray_triangle", RayTriangle},     NamedOp{"segment_triangle", SegmentTriangle},
     NamedOp{"triangle_triangle", TriangleTriangle}, NamedOp{"sphere_sphere", SphereSphere},
     NamedOp{"aabb_aabb", AabbAabb},           NamedOp{"obb_obb", ObbObb},
-    NamedOp{"convex_convex", ConvexConvex},
+    NamedOp{"convex_convex", ConvexConvex},   NamedOp{"segment_mesh", SegmentMesh},
+    NamedOp{"closest_point_mesh", ClosestPointMesh}, NamedOp{"point_inside_mesh", PointInsideMesh},
 };
 
 }  // namespace

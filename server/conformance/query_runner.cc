@@ -33,9 +33,11 @@ std::string ErrorLine(const rapidjson::Value* id, const std::string& message) {
 
 std::string AnswerCaseLine(std::string_view line) {
   rapidjson::Document doc;
-  // NaN and infinities arrive as bare tokens; full precision keeps every double exact.
-  doc.Parse<rapidjson::kParseNanAndInfFlag | rapidjson::kParseFullPrecisionFlag>(line.data(),
-                                                                                   line.size());
+  // NaN and infinities arrive as bare tokens; full precision keeps every double exact;
+  // the iterative parser bounds stack use whatever the nesting depth.
+  constexpr unsigned kFlags = rapidjson::kParseNanAndInfFlag | rapidjson::kParseFullPrecisionFlag |
+                              rapidjson::kParseIterativeFlag;
+  doc.Parse<kFlags>(line.data(), line.size());
   if (doc.HasParseError()) {
     return ErrorLine(nullptr, fmt::format("malformed JSON at offset {}: {}", doc.GetErrorOffset(),
                                           rapidjson::GetParseError_En(doc.GetParseError())));

@@ -1,7 +1,7 @@
 #pragma once
 
 // Axis-aligned bounding box. Closed set: boxes that share a face, an edge or a corner
-// overlap. An empty box has min > max on every axis and overlaps nothing.
+// overlap. A box with min > max on any axis is empty and overlaps nothing.
 
 #include <limits>
 
@@ -48,9 +48,11 @@ struct Aabb {
   }
 };
 
-// True when the closed boxes share at least one point. Exact (comparisons only).
+// True when the closed boxes share at least one point. Exact (comparisons only); a box
+// that is empty on any axis, or has a NaN coordinate, overlaps nothing.
 inline bool AabbsOverlap(const Aabb& a, const Aabb& b) {
-  return (a.min.array() <= b.max.array()).all() && (b.min.array() <= a.max.array()).all();
+  return (a.min.array() <= b.max.array()).all() && (b.min.array() <= a.max.array()).all() &&
+         (a.min.array() <= a.max.array()).all() && (b.min.array() <= b.max.array()).all();
 }
 
 }  // namespace hapticd::geometry

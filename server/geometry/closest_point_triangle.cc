@@ -6,6 +6,10 @@
 namespace hapticd::geometry {
 namespace {
 
+// Below this squared sine of the angle between ab and ac, the barycentric region tests
+// cannot be trusted (their terms cancel to rounding noise).
+constexpr double kSliverSine2 = 1e-8;
+
 // Closest point of segment a-b (a degenerate triangle's edge) to p, as a parameter.
 double ClosestParameterOnSegment(const Vector3& p, const Vector3& a, const Vector3& b) {
   const Vector3 ab = b - a;
@@ -98,7 +102,15 @@ ClosestPointOnTriangle FindClosestPointOnTriangle(const Vector3& p, const Triang
   if (!(denom > 0)) return ClosestOnDegenerate(p, tri);
   const double v = vb / denom;
   const double w = vc / denom;
-  return Make(p, a + v * ab + w * ac, v, w, TriangleFeature::kFace);
+  const ClosestPointOnTriangle face = Make(p, a + v * ab + w * ac, v, w, TriangleFeature::kFace);
+  // A sliver (sin^2 of the angle at a below kSliverSine2): va, vb, vc are mostly
+  // rounding noise, so the region walk may land here wrongly. The edges then hold the
+  // answer to within the sliver's width; keep the face point only where it is closer
+  // and truly inside.
+  if (denom > kSliverSine2 * ab.squaredNorm() * ac.squaredNorm()) return face;
+  const ClosestPointOnTriangle edges = ClosestOnDegenerate(p, tri);
+  const bool face_inside = v >= 0 && w >= 0 && v + w <= 1;
+  return face_inside && face.distance_squared < edges.distance_squared ? face : edges;
 }
 
 }  // namespace hapticd::geometry

@@ -111,42 +111,46 @@ int ExactTripleSign(const Exact3& u, const Exact3& v, const Exact3& w) {
   return sum.Sign();
 }
 
-// Fast path: the triple product of the rounded components and a bound on its error.
-// Returns the sign when the bound proves it, else 2 (undecided).
-int FilteredTripleSign(const Exact3& u, const Exact3& v, const Exact3& w) {
-  const double vw_x = v[1].hi * w[2].hi - v[2].hi * w[1].hi;
-  const double vw_y = v[2].hi * w[0].hi - v[0].hi * w[2].hi;
-  const double vw_z = v[0].hi * w[1].hi - v[1].hi * w[0].hi;
-  const double det = u[0].hi * vw_x + u[1].hi * vw_y + u[2].hi * vw_z;
+constexpr int kUndecided = 2;
+
+// Fast path: the triple product (u x v) . w of the rounded vectors and Shewchuk's bound
+// on its error. Returns the sign when the bound proves it, else kUndecided.
+int FilteredTripleSign(const Vector3& u, const Vector3& v, const Vector3& w) {
+  const double uv_x = u.y() * v.z() - u.z() * v.y();
+  const double uv_y = u.z() * v.x() - u.x() * v.z();
+  const double uv_z = u.x() * v.y() - u.y() * v.x();
+  const double det = w.x() * uv_x + w.y() * uv_y + w.z() * uv_z;
   const double permanent =
-      std::abs(u[0].hi) * (std::abs(v[1].hi * w[2].hi) + std::abs(v[2].hi * w[1].hi)) +
-      std::abs(u[1].hi) * (std::abs(v[2].hi * w[0].hi) + std::abs(v[0].hi * w[2].hi)) +
-      std::abs(u[2].hi) * (std::abs(v[0].hi * w[1].hi) + std::abs(v[1].hi * w[0].hi));
+      std::abs(w.x()) * (std::abs(u.y() * v.z()) + std::abs(u.z() * v.y())) +
+      std::abs(w.y()) * (std::abs(u.z() * v.x()) + std::abs(u.x() * v.z())) +
+      std::abs(w.z()) * (std::abs(u.x() * v.y()) + std::abs(u.y() * v.x()));
   const double bound = kOrient3dErrorBound * permanent;
   if (det > bound) return 1;
   if (-det > bound) return -1;
-  return 2;
-}
-
-int TripleSign(const Exact3& u, const Exact3& v, const Exact3& w) {
-  // Zero tails everywhere and a zero permanent: the fast result is exactly zero.
-  const int fast = FilteredTripleSign(u, v, w);
-  return fast != 2 ? fast : ExactTripleSign(u, v, w);
+  return kUndecided;
 }
 
 }  // namespace
 
+// Each predicate tries the filter on rounded differences first and forms the exact
+// two-term differences only when it cannot decide.
 int Orient3d(const Vector3& a, const Vector3& b, const Vector3& c, const Vector3& d) {
-  return TripleSign(ExactDifference(b, a), ExactDifference(c, a), ExactDifference(d, a));
+  const int fast = FilteredTripleSign(b - a, c - a, d - a);
+  if (fast != kUndecided) return fast;
+  return ExactTripleSign(ExactDifference(b, a), ExactDifference(c, a), ExactDifference(d, a));
 }
 
 int OrientLineEdge(const Vector3& o, const Vector3& dir, const Vector3& a, const Vector3& b) {
   // dir . ((a - o) x (b - o)) = ((a - o) x (b - o)) . dir
-  return TripleSign(ExactDifference(a, o), ExactDifference(b, o), ExactVector(dir));
+  const int fast = FilteredTripleSign(a - o, b - o, dir);
+  if (fast != kUndecided) return fast;
+  return ExactTripleSign(ExactDifference(a, o), ExactDifference(b, o), ExactVector(dir));
 }
 
 int TripleProductSign(const Vector3& u, const Vector3& v, const Vector3& w) {
-  return TripleSign(ExactVector(u), ExactVector(v), ExactVector(w));
+  const int fast = FilteredTripleSign(u, v, w);
+  if (fast != kUndecided) return fast;
+  return ExactTripleSign(ExactVector(u), ExactVector(v), ExactVector(w));
 }
 
 int Orient2d(const Vector2& a, const Vector2& b, const Vector2& c) {

@@ -53,6 +53,11 @@ bool SignsAgree(int a, int b, int c) {
   return !(any_negative && any_positive);
 }
 
+bool AllFinite(const Vector3& a, const Vector3& b, const Triangle& tri) {
+  return a.allFinite() && b.allFinite() && tri.v0.allFinite() && tri.v1.allFinite() &&
+         tri.v2.allFinite();
+}
+
 }  // namespace
 
 TriangleHit IntersectSegmentTriangle(const Vector3& p, const Vector3& q, const Triangle& tri) {
@@ -65,6 +70,8 @@ TriangleHit IntersectRayTriangle(const Vector3& origin, const Vector3& dir, cons
 
 TriangleHit IntersectSegmentTriangleWatertight(const Vector3& p, const Vector3& q,
                                                const Triangle& tri) {
+  // Non-finite input would make every sign unreliable: a miss, never a NaN hit.
+  if (!AllFinite(p, q, tri)) return {};
   // p and q on the same side of the plane, or both in it: a miss.
   const int side_p = Orient3d(tri.v0, tri.v1, tri.v2, p);
   const int side_q = Orient3d(tri.v0, tri.v1, tri.v2, q);
@@ -95,6 +102,7 @@ TriangleHit IntersectSegmentTriangleWatertight(const Vector3& p, const Vector3& 
 
 TriangleHit IntersectRayTriangleWatertight(const Vector3& origin, const Vector3& dir,
                                            const Triangle& tri) {
+  if (!AllFinite(origin, dir, tri)) return {};
   // Parallel to the plane (in it or not): a miss by convention.
   const int approach = OrientLineEdge(tri.v0, dir, tri.v1, tri.v2);  // sign of n . dir
   if (approach == 0) return {};

@@ -104,5 +104,37 @@ TEST(QueryRunner, NamesMissingAndMistypedFields) {
             "args.dir is missing");
 }
 
+TEST(QueryRunner, NamesTheBadPartOfAMesh) {
+  const std::string tail = R"(, "p": [0,0,1], "q": [0,0,-1]}})";
+  EXPECT_EQ(ErrorOf(R"({"id": "a", "op": "segment_mesh", "args": {"mesh": {"vertices": )"
+                    R"([[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,3]]})" + tail),
+            "args.mesh: triangle 0 refers to vertex 3 but the mesh has 3 vertices");
+  EXPECT_EQ(ErrorOf(R"({"id": "a", "op": "segment_mesh", "args": {"mesh": {"vertices": )"
+                    R"([[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,-1]]})" + tail),
+            "args.mesh: triangle 0 refers to vertex -1 but the mesh has 3 vertices");
+  EXPECT_EQ(ErrorOf(R"({"id": "a", "op": "segment_mesh", "args": {"mesh": {"vertices": )"
+                    R"([[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,1.5]]})" + tail),
+            "args.mesh.triangles[0][2] must be an integer index");
+  EXPECT_EQ(ErrorOf(R"({"id": "a", "op": "segment_mesh", "args": {"mesh": {"vertices": [], )"
+                    R"("triangles": []})" + tail),
+            "args.mesh: mesh is empty: it has 0 vertices and 0 triangles");
+  EXPECT_EQ(ErrorOf(R"({"id": "a", "op": "point_inside_mesh", "args": {"mesh": {"vertices": )"
+                    R"([[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]]}, "point": [0,0,1]}})"),
+            "args.mesh is not closed: some edge is not shared by exactly two consistently "
+            "oriented triangles, so it has no inside");
+}
+
+TEST(QueryRunner, AnswersAFirstMeshHitWithTheOriginalTriangleIndex) {
+  // triangle 0 has zero area and is skipped; the segment crosses triangle 1 at t = 0.25
+  const rapidjson::Document doc = Parse(AnswerCaseLine(
+      R"({"id": "m", "op": "segment_mesh", "args": {"mesh": {"vertices": )"
+      R"([[0,0,0],[1,0,0],[0,1,0],[2,0,0]], "triangles": [[0,1,3],[0,1,2]]}, )"
+      R"("p": [0.25,0.25,0.5], "q": [0.25,0.25,-1.5]}})"));
+  ASSERT_TRUE(doc.HasMember("result"));
+  EXPECT_TRUE(doc["result"]["hit"].GetBool());
+  EXPECT_DOUBLE_EQ(doc["result"]["t"].GetDouble(), 0.25);
+  EXPECT_EQ(doc["result"]["triangle"].GetInt(), 1);
+}
+
 }  // namespace
 }  // namespace hapticd::conformance

@@ -1,0 +1,421 @@
+#include "server/geometry/mesh_queries.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+
+#include "server/geometry/exact_predicates.h"
+#include "server/geometry/segment_triangle.h"
+
+namespace hapticd::geometry {
+namespace {
+
+// Relative slack on the far end of a slab interval. Each slab distance
+// (b - o) * (1 / d), with d = q - p rounded, is within a few ulps of the true one and
+// has the exact sign, so widening the far end by a few ulps keeps every box the exact
+// segment touches (after Ize 2013, "Robust BVH ray traversal").
+constexpr double kSlabSlack = 1 + 1e-14;
+// A closest point this close (relative to the coordinates' magnitude) may be rounding
+// away from a point on the surface: the exact on-surface test decides.
+constexpr double kOnSurfaceTolerance = 1e-10;
+// A gap shorter than this (relative to the coordinates) has no reliable direction.
+constexpr double kTinyGap = 1e-12;
+
+struct StackEntry {
+  int node;
+  double key;  // entry t of a segment, or squared distance of a point
+};
+
+// The children of a node are tested four at a time, two per vector (GCC/Clang vector
+// extensions: SSE2 or NEON registers of two doubles).
+using Double2 = double __attribute__((vector_size(16)));
+using Float2 = float __attribute__((vector_size(8)));
+using Float4 = float __attribute__((vector_size(16)));
+using Mask2 = int64_t __attribute__((vector_size(16)));
+static_assert(kBvhWidth % 4 == 0);
+
+inline Double2 Splat(double x) { return Double2{x, x}; }
+// One bound of four neighbouring children, widened to double (exact).
+inline void Load(const float* bounds, Double2& low, Double2& high) {
+  Float4 f;
+  std::memcpy(&f, bounds, sizeof(f));
+  low = __builtin_convertvector(Float2(__builtin_shufflevector(f, f, 0, 1)), Double2);
+  high = __builtin_convertvector(Float2(__builtin_shufflevector(f, f, 2, 3)), Double2);
+}
+// Starts loading a node (all of its cache lines) before it is needed.
+inline void Prefetch(const BvhNode& node) {
+  const char* bytes = reinterpret_cast<const char*>(&node);
+  for (size_t offset = 0; offset < sizeof(BvhNode); offset += 64) {
+    __builtin_prefetch(bytes + offset);
+  }
+}
+
+// The segment p -> q, prepared for slab tests.
+struct SegmentSlabs {
+  Double2 origin[3];
+  Double2 inv_dir[3];
+  bool negative[3];  // direction sign bit: the near slab plane is the upper one
+
+  SegmentSlabs(const Vector3& p, const Vector3& q) {
+    for (int a = 0; a < 3; ++a) {
+      const double d = q[a] - p[a];
+      origin[a] = Splat(p[a]);
+      inv_dir[a] = Splat(1 / d);
+      negative[a] = std::signbit(d);
+    }
+  }
+};
+
+// Which children of `node` the segment touches for t in [0, t_max]: bit c for child c,
+// with its entry t in t_entry[c]. A zero direction component gives infinite slab
+// distances, or NaN where the origin lies on the slab plane; the selects
+// `x > acc ? x : acc` skip the NaN, which leaves that slab unbounded, as it should be.
+inline int IntersectChildren(const BvhNode& node, const SegmentSlabs& s, double t_max,
+                             double t_entry[kBvhWidth]) {
+  int mask = 0;
+  for (int c = 0; c < kBvhWidth; c += 4) {
+    Double2 near[2] = {Splat(0), Splat(0)};
+    Double2 far[2] = {Splat(t_max), Splat(t_max)};
+    for (int a = 0; a < 3; ++a) {
+      Double2 near_plane[2], far_plane[2];
+      Load((s.negative[a] ? node.hi[a] : node.lo[a]) + c, near_plane[0], near_plane[1]);
+      Load((s.negative[a] ? node.lo[a] : node.hi[a]) + c, far_plane[0], far_plane[1]);
+      for (int h = 0; h < 2; ++h) {
+        const Double2 t0 = (near_plane[h] - s.origin[a]) * s.inv_dir[a];
+        const Double2 t1 = (far_plane[h] - s.origin[a]) * s.inv_dir[a];
+        near[h] = t0 > near[h] ? t0 : near[h];
+        far[h] = t1 < far[h] ? t1 : far[h];
+      }
+    }
+    for (int h = 0; h < 2; ++h) {
+      const Mask2 touched = near[h] <= far[h] * kSlabSlack;
+      t_entry[c + 2 * h] = near[h][0];
+      t_entry[c + 2 * h + 1] = near[h][1];
+      mask |= (touched[0] ? 1 << (c + 2 * h) : 0) | (touched[1] ? 2 << (c + 2 * h) : 0);
+    }
+  }
+  return mask;
+}
+
+// Squared distance from p to each child box of `node` (0 inside; infinite for an
+// empty slot).
+inline void ChildDistancesSquared(const BvhNode& node, const Double2 p[3],
+                                  double d2[kBvhWidth]) {
+  for (int c = 0; c < kBvhWidth; c += 4) {
+    Double2 sum[2] = {Splat(0), Splat(0)};
+    for (int a = 0; a < 3; ++a) {
+      Double2 lo[2], hi[2];
+      Load(node.lo[a] + c, lo[0], lo[1]);
+      Load(node.hi[a] + c, hi[0], hi[1]);
+      for (int h = 0; h < 2; ++h) {
+        const Double2 below = lo[h] - p[a];
+        const Double2 above = p[a] - hi[h];
+        Double2 gap = below > above ? below : above;
+        gap = gap > 0 ? gap : Splat(0);
+        sum[h] += gap * gap;
+      }
+    }
+    for (int h = 0; h < 2; ++h) {
+      d2[c + 2 * h] = sum[h][0];
+      d2[c + 2 * h + 1] = sum[h][1];
+    }
+  }
+}
+
+// What VisitChildren returns instead of a node to go on with.
+constexpr int kPop = -1;   // take the next node from the stack
+constexpr int kStop = -2;  // a leaf visitor ended the traversal
+
+// The children of a node whose key (entry t or squared distance) passes, nearest
+// first: leaves are handed to visit_leaf as they come (which may tighten the bound),
+// then the traversal goes on into the nearest internal child still within the bound and
+// stacks the others, farthest first. Returns that child's node, kPop or kStop.
+template <typename WithinBound, typename LeafVisitor>
+inline int VisitChildren(const std::vector<BvhNode>& nodes, const BvhNode& node,
+                         const double key[kBvhWidth], int mask, StackEntry* stack, int& top,
+                         WithinBound within, LeafVisitor visit_leaf) {
+  // order the touched children by key (insertion sort of at most kBvhWidth)
+  int order[kBvhWidth];
+  int num = 0;
+  for (int c = 0; c < kBvhWidth; ++c) {
+    if (!(mask >> c & 1)) continue;
+    int k = num++;
+    for (; k > 0 && key[order[k - 1]] > key[c]; --k) order[k] = order[k - 1];
+    order[k] = c;
+  }
+  int internal[kBvhWidth];
+  int num_internal = 0;
+  for (int k = 0; k < num; ++k) {
+    const int c = order[k];
+    if (!within(key[c])) break;
+    if (node.is_leaf(c)) {
+      if (node.count[c] > 0 && !visit_leaf(node.first_primitive(c), node.count[c])) return kStop;
+    } else {
+      Prefetch(nodes[node.child[c]]);
+      internal[num_internal++] = c;
+    }
+  }
+  int next = -1;
+  for (int k = num_internal - 1; k >= 0; --k) {
+    const int c = internal[k];
+    if (!within(key[c])) continue;
+    if (next >= 0) stack[top++] = {node.child[next], key[next]};
+    next = c;
+  }
+  return next >= 0 ? node.child[next] : kPop;
+}
+
+// Walks the BVH front to back along p -> q. visit(first, count) tests a leaf's
+// primitives and returns the new t_max (the segment is cut at a hit), or a negative
+// value to stop.
+template <typename LeafVisitor>
+void TraverseSegment(const MeshBvh& bvh, const Vector3& p, const Vector3& q, LeafVisitor visit) {
+  const SegmentSlabs slabs(p, q);
+  const std::vector<BvhNode>& nodes = bvh.nodes();
+  StackEntry stack[(kBvhWidth - 1) * kMaxBvhDepth];
+  int top = 0;
+  double t_max = 1;
+  auto within = [&](double t) { return t <= t_max * kSlabSlack; };
+  auto visit_leaf = [&](int first, int count) {
+    t_max = visit(first, count);
+    return t_max >= 0;
+  };
+  int current = 0;
+  while (true) {
+    const BvhNode& node = nodes[current];
+    double t_entry[kBvhWidth];
+    const int mask = IntersectChildren(node, slabs, t_max, t_entry);
+    current = VisitChildren(nodes, node, t_entry, mask, stack, top, within, visit_leaf);
+    if (current == kStop) return;
+    if (current != kPop) continue;
+    // pop the next subtree the (possibly shortened) segment still reaches
+    do {
+      if (top == 0) return;
+      --top;
+    } while (!within(stack[top].key));
+    current = stack[top].node;
+  }
+}
+
+// Walks every leaf whose box lies within sqrt(*bound_d2) of p, nearest first.
+// visit(first, count) may lower *bound_d2 to prune the rest.
+template <typename LeafVisitor>
+void TraverseNearest(const MeshBvh& bvh, const Vector3& p, const double* bound_d2,
+                     LeafVisitor visit) {
+  const std::vector<BvhNode>& nodes = bvh.nodes();
+  const Double2 p2[3] = {Splat(p.x()), Splat(p.y()), Splat(p.z())};
+  StackEntry stack[(kBvhWidth - 1) * kMaxBvhDepth];
+  int top = 0;
+  auto within = [&](double d2) { return d2 <= *bound_d2; };
+  auto visit_leaf = [&](int first, int count) {
+    visit(first, count);
+    return true;
+  };
+  int current = 0;
+  while (true) {
+    const BvhNode& node = nodes[current];
+    double d2[kBvhWidth];
+    ChildDistancesSquared(node, p2, d2);
+    const int all = (1 << kBvhWidth) - 1;
+    current = VisitChildren(nodes, node, d2, all, stack, top, within, visit_leaf);
+    if (current != kPop) continue;
+    do {
+      if (top == 0) return;
+      --top;
+    } while (!within(stack[top].key));
+    current = stack[top].node;
+  }
+}
+
+// Squared distance from p to the box around t: a lower bound of the distance to t that
+// costs a fraction of the exact closest point.
+inline double BoxDistanceSquared(const Vector3& p, const Triangle& t) {
+  const Vector3 lo = t.v0.cwiseMin(t.v1).cwiseMin(t.v2);
+  const Vector3 hi = t.v0.cwiseMax(t.v1).cwiseMax(t.v2);
+  return (lo - p).cwiseMax(p - hi).cwiseMax(0.0).squaredNorm();
+}
+
+// Exactly whether p lies on the closed triangle: coplanar (Orient3d), then inside the
+// triangle's projection onto a coordinate plane where the projection keeps its area.
+bool IsPointOnTriangle(const Vector3& p, const Triangle& t) {
+  if (Orient3d(t.v0, t.v1, t.v2, p) != 0) return false;
+  for (int drop = 0; drop < 3; ++drop) {
+    const int i = (drop + 1) % 3, j = (drop + 2) % 3;
+    const Vector2 a(t.v0[i], t.v0[j]), b(t.v1[i], t.v1[j]), c(t.v2[i], t.v2[j]), x(p[i], p[j]);
+    const int orientation = Orient2d(a, b, c);
+    // this projection flattens the triangle to a segment: try the next axis
+    if (orientation == 0) continue;
+    return Orient2d(a, b, x) * orientation >= 0 && Orient2d(b, c, x) * orientation >= 0 &&
+           Orient2d(c, a, x) * orientation >= 0;
+  }
+  return false;
+}
+
+// Original index of a triangle that holds p exactly, or -1.
+int FindTriangleHoldingPoint(const MeshBvh& bvh, const Vector3& p) {
+  int found = -1;
+  const double zero = 0;
+  TraverseNearest(bvh, p, &zero, [&](int first, int count) {
+    for (int i = first; i < first + count && found < 0; ++i) {
+      const Triangle& t = bvh.primitive(i);
+      if (Aabb::OfTriangle(t).Contains(p) && IsPointOnTriangle(p, t)) {
+        found = bvh.primitive_triangle(i);
+      }
+    }
+  });
+  return found;
+}
+
+// Unit normal of a sphere contact, from the triangle towards the centre. On a face it is
+// the face normal, turned to the centre's side (exact, and defined when the centre is
+// on the face: then the face normal itself). On an edge or vertex it is the direction
+// of the gap, or the feature's pseudo-normal when the gap is too small to have one.
+Vector3 ContactNormal(const TriangleMesh& mesh, int triangle, const ClosestPointOnTriangle& c,
+                      const Vector3& center, double distance) {
+  if (c.feature == TriangleFeature::kFace) {
+    const Triangle t = mesh.triangle(triangle);
+    const bool behind = Orient3d(t.v0, t.v1, t.v2, center) < 0;
+    return behind ? Vector3(-mesh.face_normal(triangle)) : mesh.face_normal(triangle);
+  }
+  const Vector3 gap = center - c.point;
+  if (distance > kTinyGap * (center.cwiseAbs().maxCoeff() + distance)) return gap / distance;
+  return mesh.FeatureNormal(triangle, c.feature);
+}
+
+}  // namespace
+
+SegmentMeshHit FindFirstSegmentHit(const MeshBvh& bvh, const Vector3& p, const Vector3& q) {
+  SegmentMeshHit best;
+  // non-finite input, or the precondition p != q broken: a miss
+  if (!p.allFinite() || !q.allFinite() || p == q) return best;
+  const Aabb segment_box{p.cwiseMin(q), p.cwiseMax(q)};
+  TraverseSegment(bvh, p, q, [&](int first, int count) {
+    for (int i = first; i < first + count; ++i) {
+      // boxes apart (exact comparisons): no contact
+      if (!AabbsOverlap(segment_box, Aabb::OfTriangle(bvh.primitive(i)))) continue;
+      const TriangleHit h = IntersectSegmentTriangleWatertight(p, q, bvh.primitive(i));
+      if (h.hit && (!best.hit || h.t < best.t)) {
+        best = {true, h.t, bvh.primitive_triangle(i), h.u, h.v};
+      }
+    }
+    return best.hit ? best.t : 1.0;
+  });
+  return best;
+}
+
+bool SegmentHitsMesh(const MeshBvh& bvh, const Vector3& p, const Vector3& q) {
+  bool hit = false;
+  if (!p.allFinite() || !q.allFinite() || p == q) return hit;
+  const Aabb segment_box{p.cwiseMin(q), p.cwiseMax(q)};
+  TraverseSegment(bvh, p, q, [&](int first, int count) {
+    for (int i = first; i < first + count && !hit; ++i) {
+      if (!AabbsOverlap(segment_box, Aabb::OfTriangle(bvh.primitive(i)))) continue;
+      hit = IntersectSegmentTriangleWatertight(p, q, bvh.primitive(i)).hit;
+    }
+    return hit ? -1.0 : 1.0;
+  });
+  return hit;
+}
+
+MeshClosestPoint FindClosestPointOnMesh(const MeshBvh& bvh, const Vector3& p,
+                                        double max_distance) {
+  MeshClosestPoint best;
+  if (!p.allFinite() || !(max_distance >= 0)) return best;
+  double best_d2 = max_distance * max_distance;
+  TraverseNearest(bvh, p, &best_d2, [&](int first, int count) {
+    for (int i = first; i < first + count; ++i) {
+      if (BoxDistanceSquared(p, bvh.primitive(i)) > best_d2) continue;
+      const ClosestPointOnTriangle c = FindClosestPointOnTriangle(p, bvh.primitive(i));
+      // within the radius at first, then strictly closer
+      if (c.distance_squared < best_d2 || (!best.found && c.distance_squared <= best_d2)) {
+        best_d2 = c.distance_squared;
+        best = {true, bvh.primitive_triangle(i), c.feature, c.point, c.u, c.v, 0};
+      }
+    }
+  });
+  if (best.found) best.distance = std::sqrt(best_d2);
+  return best;
+}
+
+SphereMeshContacts FindSphereMeshContacts(const MeshBvh& bvh, const Sphere& sphere,
+                                          std::span<SphereMeshContact> out) {
+  SphereMeshContacts result;
+  const Vector3& center = sphere.center;
+  if (!center.allFinite() || !(sphere.radius >= 0) || !std::isfinite(sphere.radius)) {
+    return result;
+  }
+  const double r2 = sphere.radius * sphere.radius;
+  const TriangleMesh& mesh = bvh.mesh();
+  TraverseNearest(bvh, center, &r2, [&](int first, int count) {
+    for (int i = first; i < first + count; ++i) {
+      if (BoxDistanceSquared(center, bvh.primitive(i)) > r2) continue;
+      const ClosestPointOnTriangle c = FindClosestPointOnTriangle(center, bvh.primitive(i));
+      if (!(c.distance_squared <= r2)) continue;
+      ++result.num_touching;
+      SphereMeshContact contact;
+      contact.triangle = bvh.primitive_triangle(i);
+      contact.point = c.point;
+      contact.feature = c.feature;
+      const double distance = std::sqrt(c.distance_squared);
+      contact.depth = std::max(0.0, sphere.radius - distance);
+      contact.normal = ContactNormal(mesh, contact.triangle, c, center, distance);
+      // buffer full: replace the shallowest kept contact if this one is deeper
+      if (result.count < static_cast<int>(out.size())) {
+        out[result.count++] = contact;
+        continue;
+      }
+      result.truncated = true;
+      if (out.empty()) continue;
+      auto shallowest = std::min_element(
+          out.begin(), out.end(),
+          [](const SphereMeshContact& x, const SphereMeshContact& y) { return x.depth < y.depth; });
+      if (shallowest->depth < contact.depth) *shallowest = contact;
+    }
+  });
+  return result;
+}
+
+MeshSignedDistance CalcSignedDistanceToMesh(const MeshBvh& bvh, const Vector3& p) {
+  MeshSignedDistance result;
+  result.closest = FindClosestPointOnMesh(bvh, p);
+  if (!result.closest.found) return result;
+  MeshClosestPoint& closest = result.closest;
+  const TriangleMesh& mesh = bvh.mesh();
+
+  // on the surface: exactly zero, or found exactly when rounding leaves a tiny gap
+  const double magnitude = mesh.size() + p.cwiseAbs().maxCoeff();
+  if (closest.distance == 0) {
+    result.inside = true;
+    return result;
+  }
+  if (closest.distance <= kOnSurfaceTolerance * magnitude) {
+    const int holder = FindTriangleHoldingPoint(bvh, p);
+    if (holder >= 0) {
+      const ClosestPointOnTriangle on = FindClosestPointOnTriangle(p, mesh.triangle(holder));
+      closest = {true, holder, on.feature, p, on.u, on.v, 0};
+      result.inside = true;
+      return result;
+    }
+  }
+
+  // the side of the closest feature's pseudo-normal; on a face, exactly
+  bool outside;
+  if (closest.feature == TriangleFeature::kFace) {
+    const Triangle t = mesh.triangle(closest.triangle);
+    outside = Orient3d(t.v0, t.v1, t.v2, p) > 0;
+  } else {
+    outside = (p - closest.point).dot(mesh.FeatureNormal(closest.triangle, closest.feature)) > 0;
+  }
+  // a closed mesh wound inwards: its outside is the other side
+  if (mesh.signed_volume() < 0) outside = !outside;
+  result.inside = !outside;
+  result.signed_distance = outside ? closest.distance : -closest.distance;
+  return result;
+}
+
+bool IsPointInsideMesh(const MeshBvh& bvh, const Vector3& p) {
+  return CalcSignedDistanceToMesh(bvh, p).inside;
+}
+
+}  // namespace hapticd::geometry

@@ -1,0 +1,246 @@
+#include "server/geometry/triangle_mesh.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "server/geometry/mesh_generators.h"
+
+namespace hapticd::geometry {
+namespace {
+
+using Indices = TriangleMesh::TriangleIndices;
+constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// A tetrahedron with outward (counter-clockwise seen from outside) faces.
+const std::vector<Vector3> kTetraVertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+const std::vector<Indices> kTetraTriangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+
+// The message of the std::invalid_argument that creating the mesh throws ("" if none).
+std::string CreationError(std::vector<Vector3> vertices, std::vector<Indices> triangles) {
+  try {
+    TriangleMesh mesh(std::move(vertices), std::move(triangles));
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// ---------------------------------------------------------------------------------
+// Validation: each rejection names the bad value.
+
+TEST(TriangleMesh, RejectsNonFiniteVertexNamingIt) {
+  auto vertices = kTetraVertices;
+  vertices[1] = {kNan, 0, 1};
+  EXPECT_EQ(CreationError(vertices, kTetraTriangles),
+            "vertex 1 has a non-finite coordinate: [nan, 0, 1]");
+  vertices[1] = {0.5, -kInf, 1};
+  EXPECT_EQ(CreationError(vertices, kTetraTriangles),
+            "vertex 1 has a non-finite coordinate: [0.5, -inf, 1]");
+  // a non-finite vertex no triangle uses is still rejected
+  vertices = kTetraVertices;
+  vertices.push_back({0, kInf, 0});
+  EXPECT_EQ(CreationError(vertices, kTetraTriangles),
+            "vertex 4 has a non-finite coordinate: [0, inf, 0]");
+}
+
+TEST(TriangleMesh, RejectsIndexOutOfRangeNamingIt) {
+  auto triangles = kTetraTriangles;
+  triangles[3] = {1, 2, 57};
+  EXPECT_EQ(CreationError(kTetraVertices, triangles),
+            "triangle 3 refers to vertex 57 but the mesh has 4 vertices");
+  triangles[3] = {1, 4, 3};
+  EXPECT_EQ(CreationError(kTetraVertices, triangles),
+            "triangle 3 refers to vertex 4 but the mesh has 4 vertices");
+  triangles[3] = {-1, 2, 3};
+  EXPECT_EQ(CreationError(kTetraVertices, triangles),
+            "triangle 3 refers to vertex -1 but the mesh has 4 vertices");
+}
+
+TEST(TriangleMesh, RejectsEmptyMesh) {
+  EXPECT_EQ(CreationError({}, {}), "mesh is empty: it has 0 vertices and 0 triangles");
+  EXPECT_EQ(CreationError(kTetraVertices, {}), "mesh is empty: it has 4 vertices and 0 triangles");
+  EXPECT_EQ(CreationError({}, kTetraTriangles), "mesh is empty: it has 0 vertices and 4 triangles");
+}
+
+TEST(TriangleMesh, RejectsMeshWithOnlyDegenerateTriangles) {
+  // collinear corners, a repeated index, and coincident positions
+  const std::vector<Vector3> vertices = {{0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {0, 0, 0}};
+  EXPECT_EQ(CreationError(vertices, {{0, 1, 2}, {0, 0, 1}, {0, 3, 1}}),
+            "mesh has no triangle of non-zero area: all 3 triangles are degenerate "
+            "(collinear or coincident corners)");
+}
+
+TEST(TriangleMesh, AcceptsUnusedVertices) {
+  auto vertices = kTetraVertices;
+  vertices.push_back({100, 100, 100});
+  const TriangleMesh mesh(vertices, kTetraTriangles);
+  EXPECT_EQ(mesh.num_vertices(), 5);
+  EXPECT_TRUE(mesh.is_closed());
+  // bounds cover the triangles, not the stray vertex
+  EXPECT_EQ(mesh.bounds().max, Vector3(1, 1, 1));
+  EXPECT_EQ(mesh.vertex_pseudo_normal(4), Vector3::Zero());
+}
+
+// ---------------------------------------------------------------------------------
+// Degenerate triangles are kept in place (indices stay the caller's) but dropped from
+// everything derived.
+
+TEST(TriangleMesh, DropsDegenerateTrianglesAndKeepsOriginalIndices) {
+  auto vertices = kTetraVertices;
+  vertices.push_back({0.5, 0.5, 0});  // on the edge 1-2, in the plane z = 0
+  const std::vector<Indices> triangles = {
+      {1, 4, 2},  // 0: collinear (zero area)
+      kTetraTriangles[0], kTetraTriangles[1],
+      {3, 3, 0},  // 3: repeated index
+      kTetraTriangles[2], kTetraTriangles[3],
+  };
+  const TriangleMesh mesh(vertices, triangles);
+  EXPECT_EQ(mesh.num_triangles(), 6);
+  EXPECT_EQ(mesh.num_degenerate_triangles(), 2);
+  EXPECT_EQ(mesh.nondegenerate_triangles(), (std::vector<int>{1, 2, 4, 5}));
+  EXPECT_TRUE(mesh.is_degenerate(0));
+  EXPECT_TRUE(mesh.is_degenerate(3));
+  EXPECT_FALSE(mesh.is_degenerate(1));
+  EXPECT_EQ(mesh.face_normal(0), Vector3::Zero());
+  // the tetrahedron is still closed: the degenerate triangles' edges do not count
+  EXPECT_TRUE(mesh.is_closed());
+  EXPECT_DOUBLE_EQ(mesh.signed_volume(), 1.0 / 6);
+  // triangle() addresses original indices
+  EXPECT_EQ(mesh.triangle(5).v2, kTetraVertices[3]);
+  EXPECT_EQ(mesh.face_normal(1), Vector3(0, 0, -1));
+}
+
+// ---------------------------------------------------------------------------------
+// Open and closed.
+
+TEST(TriangleMesh, TetrahedronIsClosedAndOutward) {
+  const TriangleMesh mesh(kTetraVertices, kTetraTriangles);
+  EXPECT_TRUE(mesh.is_closed());
+  EXPECT_DOUBLE_EQ(mesh.signed_volume(), 1.0 / 6);
+}
+
+TEST(TriangleMesh, MissingTriangleMakesItOpen) {
+  auto triangles = kTetraTriangles;
+  triangles.pop_back();
+  EXPECT_FALSE(TriangleMesh(kTetraVertices, triangles).is_closed());
+}
+
+TEST(TriangleMesh, InconsistentOrientationIsNotClosed) {
+  // every edge still has two triangles, but one triangle runs its edges the same way
+  // as its neighbours
+  auto triangles = kTetraTriangles;
+  std::swap(triangles[2][1], triangles[2][2]);
+  EXPECT_FALSE(TriangleMesh(kTetraVertices, triangles).is_closed());
+}
+
+TEST(TriangleMesh, ReversedWindingIsClosedWithNegativeVolume) {
+  auto triangles = kTetraTriangles;
+  for (Indices& t : triangles) std::swap(t[1], t[2]);
+  const TriangleMesh mesh(kTetraVertices, triangles);
+  EXPECT_TRUE(mesh.is_closed());
+  EXPECT_DOUBLE_EQ(mesh.signed_volume(), -1.0 / 6);
+}
+
+TEST(TriangleMesh, EdgeSharedByThreeTrianglesIsNotClosed) {
+  auto vertices = kTetraVertices;
+  vertices.push_back({1, 1, -1});
+  auto triangles = kTetraTriangles;
+  triangles.push_back({1, 2, 4});  // a fin on edge 1-2
+  EXPECT_FALSE(TriangleMesh(vertices, triangles).is_closed());
+}
+
+TEST(TriangleMesh, GeneratedMeshesAreClosedWithTheRightVolume) {
+  const TriangleMesh sphere = MakeIcosphere(8, 2.0);
+  EXPECT_EQ(sphere.num_triangles(), 20 * 64);
+  EXPECT_EQ(sphere.num_vertices(), 10 * 64 + 2);
+  EXPECT_TRUE(sphere.is_closed());
+  EXPECT_NEAR(sphere.signed_volume(), 4.0 / 3 * std::numbers::pi * 8, 0.05 * 8);
+  EXPECT_LT(sphere.signed_volume(), 4.0 / 3 * std::numbers::pi * 8);  // inscribed
+
+  const TriangleMesh torus = MakeTorus(2.0, 0.5, 48, 24);
+  EXPECT_EQ(torus.num_triangles(), 2 * 48 * 24);
+  EXPECT_TRUE(torus.is_closed());
+  EXPECT_NEAR(torus.signed_volume(), 2 * std::numbers::pi * std::numbers::pi * 2.0 * 0.25,
+              0.02 * 10);
+
+  const TriangleMesh box = MakeBoxMesh({0.5, 1, 2}, 4);
+  EXPECT_EQ(box.num_triangles(), 12 * 16);
+  EXPECT_EQ(box.num_vertices(), 6 * 16 + 2);
+  EXPECT_TRUE(box.is_closed());
+  EXPECT_EQ(box.signed_volume(), 8.0 * 0.5 * 1 * 2);  // dyadic: exact
+  EXPECT_EQ(box.bounds().min, Vector3(-0.5, -1, -2));
+}
+
+TEST(TriangleMesh, GeneratorsRejectBadParameters) {
+  EXPECT_THROW(MakeIcosphere(0, 1), std::invalid_argument);
+  EXPECT_THROW(MakeIcosphere(2, -1), std::invalid_argument);
+  EXPECT_THROW(MakeTorus(1, 2, 8, 8), std::invalid_argument);
+  EXPECT_THROW(MakeTorus(2, 1, 2, 8), std::invalid_argument);
+  EXPECT_THROW(MakeBoxMesh({1, 0, 1}), std::invalid_argument);
+  EXPECT_THROW(MakeBoxMesh({1, 1, 1}, 0), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------------
+// Pseudo-normals: angle weighting makes them independent of how faces are triangulated.
+
+TEST(TriangleMesh, BoxPseudoNormalsAreTheSymmetricOnes) {
+  // each box face is split into 2 triangles, so a corner sees one or two triangles
+  // per face; only the angle weighting gives (1, 1, 1) / sqrt 3 at every corner
+  const TriangleMesh box = MakeBoxMesh({1, 1, 1}, 1);
+  for (int v = 0; v < box.num_vertices(); ++v) {
+    const Vector3 expected = box.vertices()[v].normalized();
+    EXPECT_LT((box.vertex_pseudo_normal(v) - expected).norm(), 1e-15) << "vertex " << v;
+  }
+  // edges along the box's edges average two faces; the diagonals inside a face keep it
+  int box_edges = 0, diagonals = 0;
+  for (int t = 0; t < box.num_triangles(); ++t) {
+    const Indices& f = box.triangles()[t];
+    for (int e = 0; e < 3; ++e) {
+      const Vector3 a = box.vertices()[f[e]], b = box.vertices()[f[(e + 1) % 3]];
+      const Vector3 mid = 0.5 * (a + b);
+      const int zeros = (mid.array() == 0).count();
+      if (zeros == 2) {
+        ++diagonals;
+        EXPECT_LT((box.edge_pseudo_normal(t, e) - box.face_normal(t)).norm(), 1e-15);
+      } else {
+        ++box_edges;
+        EXPECT_LT((box.edge_pseudo_normal(t, e) - mid.normalized()).norm(), 1e-15);
+      }
+    }
+  }
+  EXPECT_EQ(box_edges, 24);  // 12 edges, seen from 2 triangles each
+  EXPECT_EQ(diagonals, 12);
+}
+
+TEST(TriangleMesh, FeatureNormalPicksTheFeature) {
+  const TriangleMesh mesh(kTetraVertices, kTetraTriangles);
+  const int t = 3;  // {1, 2, 3}
+  EXPECT_EQ(mesh.FeatureNormal(t, TriangleFeature::kFace), mesh.face_normal(t));
+  EXPECT_EQ(mesh.FeatureNormal(t, TriangleFeature::kVertex0), mesh.vertex_pseudo_normal(1));
+  EXPECT_EQ(mesh.FeatureNormal(t, TriangleFeature::kVertex2), mesh.vertex_pseudo_normal(3));
+  EXPECT_EQ(mesh.FeatureNormal(t, TriangleFeature::kEdge12), mesh.edge_pseudo_normal(t, 1));
+  EXPECT_EQ(mesh.FeatureNormal(t, TriangleFeature::kEdge20), mesh.edge_pseudo_normal(t, 2));
+  // the slanted face's normal, and the edge it shares with face 0 (normal -z)
+  EXPECT_LT((mesh.face_normal(t) - Vector3(1, 1, 1).normalized()).norm(), 1e-15);
+  const Vector3 expected_edge = (Vector3(1, 1, 1).normalized() + Vector3(0, 0, -1)).normalized();
+  EXPECT_LT((mesh.edge_pseudo_normal(t, 0) - expected_edge).norm(), 1e-15);
+  // the origin's corner: three right angles, one per axis face
+  EXPECT_LT((mesh.vertex_pseudo_normal(0) - Vector3(-1, -1, -1).normalized()).norm(), 1e-15);
+}
+
+TEST(TriangleMesh, OpenBoundaryEdgeTakesItsFaceNormal) {
+  const TriangleMesh mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 2}});
+  EXPECT_FALSE(mesh.is_closed());
+  for (int e = 0; e < 3; ++e) EXPECT_EQ(mesh.edge_pseudo_normal(0, e), Vector3(0, 0, 1));
+  for (int v = 0; v < 3; ++v) EXPECT_EQ(mesh.vertex_pseudo_normal(v), Vector3(0, 0, 1));
+}
+
+}  // namespace
+}  // namespace hapticd::geometry

@@ -1,0 +1,21 @@
+"""Shared fixtures for the end-to-end tests: paths to the built binaries and shared/."""
+import os
+import pathlib
+
+import pytest
+
+REPO = pathlib.Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="session")
+def bin_dir() -> pathlib.Path:
+    path = REPO / "build" / "bin"
+    assert path.is_dir(), "build first: bash deploy/build.sh"
+    return path
+
+
+@pytest.fixture(scope="session")
+def shared_dir() -> pathlib.Path:
+    path = pathlib.Path(os.environ.get("HAPTICD_SHARED", REPO.parent / "shared"))
+    assert (path / "conformance").is_dir(), f"no conformance cases under {path}"
+    return path
