@@ -9,15 +9,10 @@
 #include <gtest/gtest.h>
 
 #include "server/geometry/segment_triangle.h"
+#include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
 namespace {
-
-Matrix3 RandomRotation(std::mt19937_64& rng) {
-  std::normal_distribution<double> normal;
-  Eigen::Quaterniond q(normal(rng), normal(rng), normal(rng), normal(rng));
-  return q.normalized().toRotationMatrix();
-}
 
 // Corner k of a box: bit i of k picks the sign along axis i.
 Vector3 Corner(const Box& box, int k) {

@@ -10,15 +10,10 @@
 
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/sphere_box.h"
+#include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
 namespace {
-
-Matrix3 RandomRotation(std::mt19937_64& rng) {
-  std::normal_distribution<double> normal;
-  Eigen::Quaterniond q(normal(rng), normal(rng), normal(rng), normal(rng));
-  return q.normalized().toRotationMatrix();
-}
 
 Vector3 Corner(const Box& box, int k) {
   Vector3 local;

@@ -9,20 +9,10 @@
 
 #include "server/geometry/exact_predicates.h"
 #include "server/geometry/gjk.h"
+#include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
 namespace {
-
-std::vector<Vector3> RandomBall(std::mt19937_64& rng, int n, double radius) {
-  std::normal_distribution<double> g(0, 1);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::vector<Vector3> points;
-  for (int i = 0; i < n; ++i) {
-    const Vector3 d = Vector3(g(rng), g(rng), g(rng)).normalized();
-    points.push_back(radius * std::cbrt(u(rng)) * d);
-  }
-  return points;
-}
 
 // Volume by the divergence theorem; positive when the faces wind outward.
 double Volume(const ConvexHull& h) {

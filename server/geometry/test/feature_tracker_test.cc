@@ -1,4 +1,5 @@
 #include "server/geometry/feature_tracker.h"
+#include "server/geometry/test/random_geometry.h"
 
 #include <gtest/gtest.h>
 
@@ -8,14 +9,6 @@
 
 namespace hapticd::geometry {
 namespace {
-
-std::vector<Vector3> RandomBall(std::mt19937_64& rng, int n, double radius) {
-  std::normal_distribution<double> g(0, 1);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::vector<Vector3> points;
-  for (int i = 0; i < n; ++i) points.push_back(radius * std::cbrt(u(rng)) * Vector3(g(rng), g(rng), g(rng)).normalized());
-  return points;
-}
 
 // A smooth rigid motion: sinusoids of random frequency and phase in position and in
 // rotation angles; steps of a few millimetres and milliradians per tick.

@@ -8,24 +8,10 @@
 
 #include "server/geometry/convex_convex.h"
 #include "server/geometry/convex_hull.h"
+#include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
 namespace {
-
-std::vector<Vector3> RandomBall(std::mt19937_64& rng, int n, double radius, const Vector3& center) {
-  std::normal_distribution<double> g(0, 1);
-  std::uniform_real_distribution<double> u(0, 1);
-  std::vector<Vector3> points;
-  for (int i = 0; i < n; ++i) {
-    points.push_back(center + radius * std::cbrt(u(rng)) * Vector3(g(rng), g(rng), g(rng)).normalized());
-  }
-  return points;
-}
-
-Matrix3 RandomRotation(std::mt19937_64& rng) {
-  std::normal_distribution<double> g(0, 1);
-  return Eigen::Quaterniond(g(rng), g(rng), g(rng), g(rng)).normalized().toRotationMatrix();
-}
 
 std::vector<Vector3> Cube(const Vector3& lo, const Vector3& hi) {
   std::vector<Vector3> corners;

@@ -9,15 +9,10 @@
 #include <gtest/gtest.h>
 
 #include "server/geometry/closest_point_triangle.h"
+#include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
 namespace {
-
-Matrix3 RandomRotation(std::mt19937_64& rng) {
-  std::normal_distribution<double> normal;
-  Eigen::Quaterniond q(normal(rng), normal(rng), normal(rng), normal(rng));
-  return q.normalized().toRotationMatrix();
-}
 
 // The box surface as 12 triangles (two per face), in the world frame.
 std::array<Triangle, 12> BoxTriangles(const Box& box) {

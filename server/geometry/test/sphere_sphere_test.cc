@@ -1,4 +1,5 @@
 #include "server/geometry/sphere_sphere.h"
+#include "server/geometry/test/random_geometry.h"
 
 #include <cmath>
 #include <limits>
@@ -10,12 +11,6 @@ namespace hapticd::geometry {
 namespace {
 
 constexpr double kTol = 1e-12;
-
-Matrix3 RandomRotation(std::mt19937_64& rng) {
-  std::normal_distribution<double> normal;
-  Eigen::Quaterniond q(normal(rng), normal(rng), normal(rng), normal(rng));
-  return q.normalized().toRotationMatrix();
-}
 
 // The witness points sit on the surfaces, |distance| apart, along the normal.
 void ExpectConsistent(const Sphere& a, const Sphere& b, const SphereSphereResult& r) {
