@@ -89,6 +89,20 @@ void BM_BvhBuild(benchmark::State& state) {
                  std::to_string(mesh->num_triangles()) + " triangles, 2 threads");
 }
 
+// Times FindFirstSegmentHit over the segments in turn (kNumInputs of them).
+void TimeFirstHits(benchmark::State& state, const MeshBvh& bvh,
+                   const std::vector<std::pair<Vector3, Vector3>>& segments) {
+  int k = 0, hits = 0;
+  for (auto _ : state) {
+    const auto& [p, q] = segments[k++ & (kNumInputs - 1)];
+    const SegmentMeshHit hit = FindFirstSegmentHit(bvh, p, q);
+    hits += hit.hit;
+    benchmark::DoNotOptimize(hit);
+  }
+  SetLabel(state, bvh);
+  state.counters["hit_rate"] = static_cast<double>(hits) / state.iterations();
+}
+
 void BM_ShortSegment(benchmark::State& state) {
   const MeshBvh& bvh = CachedBvh(state);
   const double size = bvh.mesh().size();
@@ -99,15 +113,7 @@ void BM_ShortSegment(benchmark::State& state) {
     const Vector3 half = 0.005 * size * RandomDirection(rng);
     segments.emplace_back(mid - half, mid + half);
   }
-  int k = 0, hits = 0;
-  for (auto _ : state) {
-    const auto& [p, q] = segments[k++ & (kNumInputs - 1)];
-    const SegmentMeshHit hit = FindFirstSegmentHit(bvh, p, q);
-    hits += hit.hit;
-    benchmark::DoNotOptimize(hit);
-  }
-  SetLabel(state, bvh);
-  state.counters["hit_rate"] = static_cast<double>(hits) / state.iterations();
+  TimeFirstHits(state, bvh, segments);
 }
 
 void BM_CoherentSegment(benchmark::State& state) {
@@ -123,15 +129,9 @@ void BM_CoherentSegment(benchmark::State& state) {
     const Vector3 normal = bvh.mesh().face_normal(on.triangle);
     walk.push_back(on.point + 0.005 * size * signed_unit(rng) * normal);
   }
-  int k = 0, hits = 0;
-  for (auto _ : state) {
-    const int i = k++ & (kNumInputs - 1);
-    const SegmentMeshHit hit = FindFirstSegmentHit(bvh, walk[i], walk[i + 1]);
-    hits += hit.hit;
-    benchmark::DoNotOptimize(hit);
-  }
-  SetLabel(state, bvh);
-  state.counters["hit_rate"] = static_cast<double>(hits) / state.iterations();
+  std::vector<std::pair<Vector3, Vector3>> segments;
+  for (int i = 0; i < kNumInputs; ++i) segments.emplace_back(walk[i], walk[i + 1]);
+  TimeFirstHits(state, bvh, segments);
 }
 
 void BM_LongSegment(benchmark::State& state) {
@@ -145,15 +145,7 @@ void BM_LongSegment(benchmark::State& state) {
   };
   std::vector<std::pair<Vector3, Vector3>> segments;
   for (int k = 0; k < kNumInputs; ++k) segments.emplace_back(random_in_box(), random_in_box());
-  int k = 0, hits = 0;
-  for (auto _ : state) {
-    const auto& [p, q] = segments[k++ & (kNumInputs - 1)];
-    const SegmentMeshHit hit = FindFirstSegmentHit(bvh, p, q);
-    hits += hit.hit;
-    benchmark::DoNotOptimize(hit);
-  }
-  SetLabel(state, bvh);
-  state.counters["hit_rate"] = static_cast<double>(hits) / state.iterations();
+  TimeFirstHits(state, bvh, segments);
 }
 
 void BM_ClosestPoint(benchmark::State& state) {
