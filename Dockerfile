@@ -4,4 +4,6 @@ FROM debian:12
 WORKDIR /opt/hapticd
 COPY . .
 RUN bash deploy/install.sh && bash deploy/build.sh normal
-CMD ["bash", "deploy/start.sh"]
+# Until the server exists, the image answers geometry conformance cases on stdin:
+#   docker run -i IMAGE < cases.jsonl
+ENTRYPOINT ["build/bin/hapticd-query"]
