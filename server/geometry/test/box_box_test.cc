@@ -9,17 +9,11 @@
 #include <gtest/gtest.h>
 
 #include "server/geometry/segment_triangle.h"
+#include "server/geometry/test/box_surface.h"
 #include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
 namespace {
-
-// Corner k of a box: bit i of k picks the sign along axis i.
-Vector3 Corner(const Box& box, int k) {
-  Vector3 local;
-  for (int i = 0; i < 3; ++i) local[i] = ((k >> i) & 1 ? 1 : -1) * box.half_extents[i];
-  return box.center + box.rotation * local;
-}
 
 // The 12 edges as corner-index pairs that differ in one bit.
 std::array<std::array<int, 2>, 12> EdgeCorners() {
@@ -31,21 +25,6 @@ std::array<std::array<int, 2>, 12> EdgeCorners() {
     }
   }
   return edges;
-}
-
-// The 6 faces as 2 triangles each, by corner indices.
-std::array<Triangle, 12> FaceTriangles(const Box& box) {
-  std::array<Triangle, 12> triangles;
-  int n = 0;
-  for (int axis = 0; axis < 3; ++axis) {
-    const int a = 1 << ((axis + 1) % 3);
-    const int b = 1 << ((axis + 2) % 3);
-    for (int side : {0, 1 << axis}) {
-      triangles[n++] = {Corner(box, side), Corner(box, side | a), Corner(box, side | a | b)};
-      triangles[n++] = {Corner(box, side), Corner(box, side | a | b), Corner(box, side | b)};
-    }
-  }
-  return triangles;
 }
 
 bool ContainsPoint(const Box& box, const Vector3& p) {

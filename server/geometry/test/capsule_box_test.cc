@@ -10,31 +10,11 @@
 
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/sphere_box.h"
+#include "server/geometry/test/box_surface.h"
 #include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
 namespace {
-
-Vector3 Corner(const Box& box, int k) {
-  Vector3 local;
-  for (int i = 0; i < 3; ++i) local[i] = ((k >> i) & 1 ? 1 : -1) * box.half_extents[i];
-  return box.center + box.rotation * local;
-}
-
-// The box surface as 12 triangles.
-std::array<Triangle, 12> FaceTriangles(const Box& box) {
-  std::array<Triangle, 12> triangles;
-  int n = 0;
-  for (int axis = 0; axis < 3; ++axis) {
-    const int a = 1 << ((axis + 1) % 3);
-    const int b = 1 << ((axis + 2) % 3);
-    for (int side : {0, 1 << axis}) {
-      triangles[n++] = {Corner(box, side), Corner(box, side | a), Corner(box, side | a | b)};
-      triangles[n++] = {Corner(box, side), Corner(box, side | a | b), Corner(box, side | b)};
-    }
-  }
-  return triangles;
-}
 
 // Oracle: the distance from a point to the solid box, through the triangles.
 double OraclePointBoxDistance(const Vector3& p, const Box& box,

@@ -9,44 +9,17 @@
 #include <gtest/gtest.h>
 
 #include "server/geometry/closest_point_triangle.h"
+#include "server/geometry/test/box_surface.h"
 #include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
 namespace {
 
-// The box surface as 12 triangles (two per face), in the world frame.
-std::array<Triangle, 12> BoxTriangles(const Box& box) {
-  const auto corner = [&](int sx, int sy, int sz) -> Vector3 {
-    return box.center + box.rotation * Vector3(sx * box.half_extents.x(),
-                                               sy * box.half_extents.y(),
-                                               sz * box.half_extents.z());
-  };
-  std::array<Triangle, 12> triangles;
-  int k = 0;
-  for (int axis = 0; axis < 3; ++axis) {
-    for (int side : {-1, 1}) {
-      // The face's four corners: s along axis, the other two axes sweep +-1.
-      std::array<Vector3, 4> c;
-      const int signs[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
-      for (int i = 0; i < 4; ++i) {
-        int s[3];
-        s[axis] = side;
-        s[(axis + 1) % 3] = signs[i][0];
-        s[(axis + 2) % 3] = signs[i][1];
-        c[i] = corner(s[0], s[1], s[2]);
-      }
-      triangles[k++] = {c[0], c[1], c[2]};
-      triangles[k++] = {c[0], c[2], c[3]};
-    }
-  }
-  return triangles;
-}
-
 // Independent oracle: the distance from the centre to the box surface through the
 // closest points of its triangles, and inside/outside from the box coordinates.
 double OracleSignedDistance(const Sphere& s, const Box& box) {
   double surface = std::numeric_limits<double>::infinity();
-  for (const Triangle& t : BoxTriangles(box)) {
+  for (const Triangle& t : FaceTriangles(box)) {
     const double d2 = FindClosestPointOnTriangle(s.center, t).distance_squared;
     surface = std::min(surface, std::sqrt(d2));
   }
