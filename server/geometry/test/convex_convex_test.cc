@@ -8,6 +8,7 @@
 
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/exact_predicates.h"
+#include "server/geometry/test/minkowski_oracle.h"
 #include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
@@ -23,30 +24,6 @@ std::vector<Vector3> Moved(const std::vector<Vector3>& points, const Matrix3& R,
   std::vector<Vector3> out;
   for (const Vector3& p : points) out.push_back(R * p + t);
   return out;
-}
-
-std::vector<Vector3> MinkowskiDifference(const std::vector<Vector3>& a, const std::vector<Vector3>& b) {
-  std::vector<Vector3> diff;
-  for (const Vector3& p : a) {
-    for (const Vector3& q : b) diff.push_back(q - p);
-  }
-  return diff;
-}
-
-// Oracle: signed distance of the origin to the hull of {b_j - a_i} (NaN when that hull
-// is flat): the nearest face's distance outside, minus the least plane distance inside.
-double OracleSignedDistance(const std::vector<Vector3>& a, const std::vector<Vector3>& b) {
-  const ConvexHull d = BuildConvexHull(MinkowskiDifference(a, b));
-  if (d.dimension != 3) return std::numeric_limits<double>::quiet_NaN();
-  double outside = -std::numeric_limits<double>::infinity();
-  for (size_t f = 0; f < d.faces.size(); ++f) outside = std::max(outside, -d.face_normals[f].dot(d.vertices[d.faces[f][0]]));
-  if (outside <= 0) return outside;
-  double nearest = std::numeric_limits<double>::infinity();
-  for (const auto& f : d.faces) {
-    const Triangle t{d.vertices[f[0]], d.vertices[f[1]], d.vertices[f[2]]};
-    nearest = std::min(nearest, FindClosestPointOnTriangle(Vector3::Zero(), t).distance_squared);
-  }
-  return std::sqrt(nearest);
 }
 
 void ExpectTouching(const std::vector<Vector3>& a, const std::vector<Vector3>& b, const Vector3& normal) {

@@ -8,30 +8,11 @@
 
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/convex_hull.h"
+#include "server/geometry/test/minkowski_oracle.h"
 #include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
 namespace {
-
-// Oracle: the hull of the Minkowski difference {b_j - a_i}. Outside it, the distance
-// is the origin's distance to its nearest face; inside, minus the least distance to a
-// face plane.
-double OracleSignedDistance(const std::vector<Vector3>& a, const std::vector<Vector3>& b) {
-  std::vector<Vector3> diff;
-  for (const Vector3& p : a) {
-    for (const Vector3& q : b) diff.push_back(q - p);
-  }
-  const ConvexHull d = BuildConvexHull(diff);
-  double outside = -std::numeric_limits<double>::infinity();
-  for (size_t f = 0; f < d.faces.size(); ++f) outside = std::max(outside, -d.face_normals[f].dot(d.vertices[d.faces[f][0]]));
-  if (outside <= 0) return outside;
-  double nearest = std::numeric_limits<double>::infinity();
-  for (const auto& f : d.faces) {
-    const Triangle t{d.vertices[f[0]], d.vertices[f[1]], d.vertices[f[2]]};
-    nearest = std::min(nearest, FindClosestPointOnTriangle(Vector3::Zero(), t).distance_squared);
-  }
-  return std::sqrt(nearest);
-}
 
 // Largest signed distance of p beyond the hull's face planes (<= 0: inside).
 double Outside(const ConvexHull& h, const Vector3& p) {

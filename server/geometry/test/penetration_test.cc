@@ -8,6 +8,7 @@
 
 #include "server/geometry/convex_convex.h"
 #include "server/geometry/convex_hull.h"
+#include "server/geometry/test/minkowski_oracle.h"
 #include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
@@ -26,11 +27,7 @@ struct Oracle {
   Vector3 normal;
 };
 Oracle OracleDepth(const std::vector<Vector3>& a, const std::vector<Vector3>& b) {
-  std::vector<Vector3> diff;
-  for (const Vector3& p : a) {
-    for (const Vector3& q : b) diff.push_back(q - p);
-  }
-  const ConvexHull d = BuildConvexHull(diff);
+  const ConvexHull d = BuildConvexHull(MinkowskiDifference(a, b));
   Oracle best{std::numeric_limits<double>::infinity(), Vector3::Zero()};
   for (size_t f = 0; f < d.faces.size(); ++f) {
     const double plane = d.face_normals[f].dot(d.vertices[d.faces[f][0]]);
