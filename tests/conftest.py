@@ -9,7 +9,7 @@ REPO = pathlib.Path(__file__).resolve().parent.parent
 
 @pytest.fixture(scope="session")
 def bin_dir() -> pathlib.Path:
-    path = REPO / "build" / "bin"
+    path = pathlib.Path(os.environ.get("HAPTICD_BIN", REPO / "build" / "bin"))
     assert path.is_dir(), "build first: bash deploy/build.sh"
     return path
 

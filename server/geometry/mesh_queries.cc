@@ -5,17 +5,15 @@
 #include <cstdint>
 #include <cstring>
 
+#include "server/geometry/bvh_simd.h"
 #include "server/geometry/exact_predicates.h"
 #include "server/geometry/segment_triangle.h"
 
 namespace hapticd::geometry {
 namespace {
 
-// Relative slack on the far end of a slab interval. Each slab distance
-// (b - o) * (1 / d), with d = q - p rounded, is within a few ulps of the true one and
-// has the exact sign, so widening the far end by a few ulps keeps every box the exact
-// segment touches (after Ize 2013, "Robust BVH ray traversal").
-constexpr double kSlabSlack = 1 + 1e-14;
+using namespace bvh_simd;
+
 // A closest point this close (relative to the coordinates' magnitude) may be rounding
 // away from a point on the surface: the exact on-surface test decides.
 constexpr double kOnSurfaceTolerance = 1e-10;
@@ -26,30 +24,6 @@ struct StackEntry {
   int node;
   double key;  // entry t of a segment, or squared distance of a point
 };
-
-// The children of a node are tested four at a time, two per vector (GCC/Clang vector
-// extensions: SSE2 or NEON registers of two doubles).
-using Double2 = double __attribute__((vector_size(16)));
-using Float2 = float __attribute__((vector_size(8)));
-using Float4 = float __attribute__((vector_size(16)));
-using Mask2 = int64_t __attribute__((vector_size(16)));
-static_assert(kBvhWidth % 4 == 0);
-
-inline Double2 Splat(double x) { return Double2{x, x}; }
-// One bound of four neighbouring children, widened to double (exact).
-inline void Load(const float* bounds, Double2& low, Double2& high) {
-  Float4 f;
-  std::memcpy(&f, bounds, sizeof(f));
-  low = __builtin_convertvector(Float2(__builtin_shufflevector(f, f, 0, 1)), Double2);
-  high = __builtin_convertvector(Float2(__builtin_shufflevector(f, f, 2, 3)), Double2);
-}
-// Starts loading a node (all of its cache lines) before it is needed.
-inline void Prefetch(const BvhNode& node) {
-  const char* bytes = reinterpret_cast<const char*>(&node);
-  for (size_t offset = 0; offset < sizeof(BvhNode); offset += 64) {
-    __builtin_prefetch(bytes + offset);
-  }
-}
 
 // The segment p -> q, prepared for slab tests.
 struct SegmentSlabs {

@@ -1,0 +1,153 @@
+#include "server/force/proxy_solver.h"
+
+#include <bit>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Dense>
+
+#include "server/force/scene_queries.h"
+
+namespace hapticd::force {
+namespace {
+
+// Sweeps and planes per tick. Three planes pin a corner; the extra passes re-find the
+// surface after sliding along a curved one.
+constexpr int kMaxPasses = 8;
+// The proxy stops this far short of a surface (m), so rounding never leaves it inside.
+constexpr double kSkin = 1e-9;
+// Moves shorter than this (m) are arrivals.
+constexpr double kArrived = 1e-12;
+// A proxy this close to a kinematic object (m) rests on it and is carried along.
+constexpr double kRestingGap = 1e-6;
+// Push-outs per tick: one per object the proxy can be wedged between.
+constexpr int kMaxPushes = 3;
+// Constraint violations smaller than this (m) count as satisfied.
+constexpr double kFeasibility = 1e-12;
+
+bool Satisfies(const Vector3& x, const ProxyPlane* planes, int num_planes) {
+  for (int i = 0; i < num_planes; ++i) {
+    if (planes[i].normal.dot(x) < planes[i].offset - kFeasibility) return false;
+  }
+  return true;
+}
+
+// Point nearest goal on the given planes (all active): x = goal + N lambda with the
+// normal equations (N^T N) lambda = offsets - N^T goal. False when the planes are
+// dependent (a parallel pair, three through one line) or one of them would pull the
+// point towards its inside (lambda < 0: that plane is not active).
+template <int kCount>
+bool ProjectOntoActive(const Vector3& goal, const ProxyPlane* const* active, Vector3* x) {
+  Eigen::Matrix<double, 3, kCount> normals;
+  Eigen::Matrix<double, kCount, 1> offsets;
+  for (int i = 0; i < kCount; ++i) {
+    normals.col(i) = active[i]->normal;
+    offsets[i] = active[i]->offset - active[i]->normal.dot(goal);
+  }
+  const Eigen::Matrix<double, kCount, kCount> gram = normals.transpose() * normals;
+  if (!(std::abs(gram.determinant()) > 1e-12)) return false;
+  const Eigen::Matrix<double, kCount, 1> lambda = gram.inverse() * offsets;
+  if ((lambda.array() < 0).any()) return false;
+  *x = goal + normals * lambda;
+  return true;
+}
+
+// The subset's planes (bit i: plane i active) projected onto.
+bool ProjectOntoSubset(const Vector3& goal, const ProxyPlane* planes, int num_planes, int subset,
+                       Vector3* x) {
+  const ProxyPlane* active[kMaxProxyPlanes];
+  int count = 0;
+  for (int i = 0; i < num_planes; ++i) {
+    if (subset & (1 << i)) active[count++] = &planes[i];
+  }
+  switch (count) {
+    case 1: return ProjectOntoActive<1>(goal, active, x);
+    case 2: return ProjectOntoActive<2>(goal, active, x);
+    case 3: return ProjectOntoActive<3>(goal, active, x);
+    default: return false;
+  }
+}
+
+// A plane already among the constraints: meeting it again means the sweep and the
+// constraints disagree, and another pass would only repeat itself.
+bool IsKnown(const ProxyMove& move, const Vector3& normal, double offset) {
+  for (int i = 0; i < move.num_planes; ++i) {
+    if (move.planes[i].normal.dot(normal) > 1 - 1e-12 &&
+        std::abs(move.planes[i].offset - offset) <= kFeasibility) {
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+Vector3 ProjectOntoPlanes(const Vector3& goal, const ProxyPlane* planes, int num_planes) {
+  if (Satisfies(goal, planes, num_planes)) return goal;
+  Vector3 best = goal;
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (int subset = 1; subset < (1 << num_planes); ++subset) {
+    if (std::popcount(static_cast<unsigned>(subset)) > 3) continue;
+    Vector3 x;
+    if (!ProjectOntoSubset(goal, planes, num_planes, subset, &x)) continue;
+    if (!Satisfies(x, planes, num_planes)) continue;
+    const double distance = (x - goal).squaredNorm();
+    if (distance < best_distance) best_distance = distance, best = x;
+  }
+  return best;
+}
+
+Vector3 CarryProxy(const scene::SceneSnapshot& scene, const Vector3& x, double r, double dt,
+                   bool scene_changed) {
+  if (!x.allFinite()) return x;
+  Vector3 carried = x;
+  // a proxy resting on (within a micrometre of) a kinematic object moves with it
+  bool any_kinematic = false;
+  for (const scene::SceneObject& object : scene.objects()) {
+    if (object.motion != scene::Motion::kKinematic) continue;
+    any_kinematic = true;
+    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(x), r + kRestingGap);
+    if (!probe.found || probe.signed_distance > r + kRestingGap) continue;
+    carried += dt * object.CalcPointVelocity(object.X_WB.ToWorld(probe.point_B));
+    break;
+  }
+  // an object that moved into the proxy (or appeared around it) pushes it out
+  if (!any_kinematic && !scene_changed) return carried;
+  for (int push = 0; push < kMaxPushes; ++push) {
+    const SceneContact inside = FindDeepestContact(scene, carried, r, 0);
+    if (inside.object < 0 || inside.depth <= kSkin) break;
+    carried += (inside.depth + kSkin) * inside.normal_W;
+  }
+  return carried;
+}
+
+ProxyMove MoveProxy(const scene::SceneSnapshot& scene, const Vector3& start, const Vector3& goal,
+                    double r) {
+  ProxyMove move;
+  move.position = start;
+  if (!start.allFinite() || !goal.allFinite() || !(r >= 0)) return move;
+  for (int pass = 0; pass < kMaxPasses; ++pass) {
+    const Vector3 target =
+        ProjectOntoPlanes(goal, move.planes.data(), move.num_planes);
+    const Vector3 motion = target - move.position;
+    if (motion.norm() <= kArrived) return move;
+    const SceneSweep sweep = SweepSphereScene(scene, move.position, target, r);
+    if (!sweep.hit) {
+      move.position = target;
+      return move;
+    }
+    // stop on the surface, a skin's width off it
+    move.position += sweep.t * motion + kSkin * sweep.normal_W;
+    const double offset = sweep.normal_W.dot(sweep.point_W) + r + kSkin;
+    if (move.num_planes == kMaxProxyPlanes || IsKnown(move, sweep.normal_W, offset)) {
+      move.overflow = true;
+      return move;
+    }
+    ProxyPlane& plane = move.planes[move.num_planes++];
+    plane = {sweep.normal_W, offset, sweep.point_W, sweep.object, sweep.triangle};
+  }
+  move.overflow = true;
+  return move;
+}
+
+}  // namespace hapticd::force

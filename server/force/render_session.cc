@@ -1,0 +1,139 @@
+#include "server/force/render_session.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "server/force/admittance_avatar.h"
+#include "server/force/control.h"
+#include "server/force/penalty_avatar.h"
+#include "server/force/proxy_avatar.h"
+
+namespace hapticd::force {
+namespace {
+
+// Positions beyond this (m) are absurd for a desktop device or an arm's workspace.
+constexpr double kMaxPosition = 100;
+// Input faster than this many times the declared maximum velocity is absurd.
+constexpr double kVelocityMargin = 10;
+// A sensed force beyond this many times the device's maximum force is absurd.
+constexpr double kForceMargin = 100;
+// The passivity controller's damping is capped so that it alone stays below the force
+// limit at 1 cm/s.
+constexpr double kPassivityDampingPerNewton = 100;
+
+bool IsFinite(const DeviceInput& in) {
+  return in.p_WD.allFinite() && in.v_WD.allFinite() && in.f_held_W.allFinite() &&
+         in.f_sensed_W.allFinite();
+}
+
+bool IsAbsurd(const DeviceInput& in, const DeviceSettings& device) {
+  return in.p_WD.norm() > kMaxPosition ||
+         in.v_WD.norm() > kVelocityMargin * device.max_velocity ||
+         in.f_sensed_W.norm() > kForceMargin * device.max_force ||
+         in.f_held_W.norm() > kForceMargin * device.max_force;
+}
+
+}  // namespace
+
+struct RenderSession::State {
+  explicit State(const SessionSettings& s)
+      : proxy(s.avatar.radius, s.avatar.force_shading),
+        admittance(s.avatar.radius, s.admittance, s.device.max_velocity),
+        passivity(s.control.passivity, kPassivityDampingPerNewton * s.device.max_force),
+        limiter(s.device.max_force, s.device.max_force_rate),
+        watchdog(s.control.watchdog_timeout_s, s.control.watchdog_ramp_s) {}
+
+  ProxyAvatar proxy;
+  AdmittanceAvatar admittance;
+  PassivityController passivity;
+  ForceLimiter limiter;
+  Watchdog watchdog;
+  DeviceInput last_good;
+  bool has_good = false;
+};
+
+RenderSession::RenderSession(const SessionSettings& settings) : settings_(settings) {
+  if (const auto error = ValidateSessionSettings(settings)) throw std::invalid_argument(*error);
+  state_ = std::make_unique<State>(settings);
+}
+
+RenderSession::~RenderSession() = default;
+RenderSession::RenderSession(RenderSession&&) noexcept = default;
+RenderSession& RenderSession::operator=(RenderSession&&) noexcept = default;
+
+void RenderSession::Reset(const Vector3& p_W) {
+  State& s = *state_;
+  s.proxy.Reset(p_W);
+  s.admittance.Reset(p_W);
+  s.passivity.Reset(p_W);
+  s.limiter.Reset();
+  s.watchdog.Reset();
+  s.last_good = DeviceInput{};
+  s.last_good.p_WD = p_W;
+  s.has_good = true;
+}
+
+double RenderSession::observed_energy() const { return state_->passivity.observed_energy(); }
+
+TickOutput RenderSession::Tick(const scene::SceneSnapshot& scene, const DeviceInput& input,
+                               double dt) {
+  State& s = *state_;
+  ++counters_.ticks;
+  if (!(dt > 0) || !std::isfinite(dt)) dt = 1 / settings_.device.rate_hz;
+
+  // sanity checks: a bad sample is counted and treated as a missing one
+  bool fresh = input.fresh;
+  if (fresh && !IsFinite(input)) {
+    ++counters_.nonfinite_inputs;
+    fresh = false;
+  } else if (fresh && IsAbsurd(input, settings_.device)) {
+    ++counters_.absurd_inputs;
+    fresh = false;
+  }
+  if (fresh) {
+    s.last_good = input;
+    s.has_good = true;
+    s.passivity.Observe(input.p_WD, input.f_held_W);
+  }
+  const unsigned long long trips_before = s.watchdog.trips();
+  const double scale = s.watchdog.Step(fresh, dt);
+  counters_.watchdog_trips += s.watchdog.trips() - trips_before;
+
+  TickOutput out;
+  if (!s.has_good) return out;
+  const DeviceInput& in = s.last_good;
+
+  // admittance: force in, pose out (a silent device's force fades with the watchdog)
+  if (settings_.device.mode == DeviceMode::kAdmittance) {
+    const AvatarForce avatar = s.admittance.Step(scene, scale * in.f_sensed_W, dt);
+    counters_.constraint_overflows += avatar.overflow;
+    out.f_W = avatar.f_W;
+    out.p_command_W = avatar.avatar_W;
+    out.avatar_W = avatar.avatar_W;
+    out.contact = avatar.contact;
+    out.touched_object = avatar.object;
+    return out;
+  }
+
+  // impedance: collision detection and force response
+  const AvatarSettings& a = settings_.avatar;
+  const AvatarForce avatar =
+      a.method == ForceMethod::kPenalty
+          ? CalcPenaltyForce(scene, in.p_WD, in.v_WD, a.radius, a.force_shading)
+          : s.proxy.Step(scene, in.p_WD, in.v_WD, dt);
+  counters_.constraint_overflows += avatar.overflow;
+
+  // control: passivity, then the device's limits, then the watchdog's ramp
+  Vector3 f = s.passivity.Apply(avatar.f_W, in.v_WD, dt);
+  counters_.passivity_activations += s.passivity.active();
+  f = s.limiter.Apply(f, dt);
+  counters_.force_saturations += s.limiter.saturated();
+  out.f_W = scale * f;
+  out.p_command_W = in.p_WD;
+  out.avatar_W = avatar.avatar_W;
+  out.contact = avatar.contact;
+  out.touched_object = avatar.object;
+  return out;
+}
+
+}  // namespace hapticd::force

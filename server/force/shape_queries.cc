@@ -1,0 +1,277 @@
+#include "server/force/shape_queries.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "server/geometry/closest_point_triangle.h"
+#include "server/geometry/gjk.h"
+#include "server/geometry/mesh_queries.h"
+#include "server/geometry/sphere_sweep.h"
+
+namespace hapticd::force {
+namespace {
+
+using geometry::ConvexHull;
+using geometry::MeshBvh;
+using scene::BoxShape;
+using scene::CapsuleShape;
+using scene::ConvexShape;
+using scene::MeshShape;
+using scene::PlaneShape;
+using scene::SphereShape;
+
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+// A sweep whose gap closes to this (m) has touched: far below what a hand can feel and
+// far above the rounding of coordinates of a metre-sized scene.
+constexpr double kSweepTolerance = 1e-10;
+// A sphere this close (m) to a mesh beyond its radius rests on it: motion into the
+// nearest triangle stops at once (a proxy rests a skin of 1e-9 m off the surface).
+constexpr double kRestingGap = 1e-8;
+// Conservative advancement converges in a few steps on curved surfaces and in one on
+// flat ones; this bound only guards against non-finite input.
+constexpr int kMaxSweepSteps = 64;
+
+// The unit vector along v, or fallback when v is too short to have a direction.
+Vector3 UnitOr(const Vector3& v, const Vector3& fallback) {
+  const double length = v.norm();
+  return length > 1e-300 ? Vector3(v / length) : fallback;
+}
+
+ShapeProbe ProbeSphere(const SphereShape& sphere, const Vector3& p) {
+  ShapeProbe probe;
+  probe.found = true;
+  // if p is the centre, every direction is nearest: pick +z
+  probe.normal_B = UnitOr(p, Vector3::UnitZ());
+  probe.point_B = sphere.radius * probe.normal_B;
+  probe.signed_distance = p.norm() - sphere.radius;
+  return probe;
+}
+
+ShapeProbe ProbeBox(const BoxShape& box, const Vector3& p) {
+  ShapeProbe probe;
+  probe.found = true;
+  const Vector3& h = box.half_extents;
+  const Vector3 clamped = p.cwiseMax(-h).cwiseMin(h);
+  if (clamped != p) {
+    // outside: the clamped point is the nearest
+    probe.point_B = clamped;
+    probe.signed_distance = (p - clamped).norm();
+    probe.normal_B = UnitOr(p - clamped, Vector3::UnitZ());
+    return probe;
+  }
+  // inside (or on the surface): the nearest face is the one with the least room
+  int axis = 0;
+  double least_room = kInfinity;
+  for (int k = 0; k < 3; ++k) {
+    const double room = h[k] - std::abs(p[k]);
+    if (room < least_room) least_room = room, axis = k;
+  }
+  const double side = p[axis] >= 0 ? 1.0 : -1.0;
+  probe.normal_B = side * Vector3::Unit(axis);
+  probe.point_B = p;
+  probe.point_B[axis] = side * h[axis];
+  probe.signed_distance = -least_room;
+  return probe;
+}
+
+ShapeProbe ProbeCapsule(const CapsuleShape& capsule, const Vector3& p) {
+  ShapeProbe probe;
+  probe.found = true;
+  const Vector3 axis_point(0, 0, std::clamp(p.z(), -capsule.half_length, capsule.half_length));
+  // if p is on the axis, any radial direction is nearest: pick +x
+  probe.normal_B = UnitOr(p - axis_point, Vector3::UnitX());
+  probe.point_B = axis_point + capsule.radius * probe.normal_B;
+  probe.signed_distance = (p - axis_point).norm() - capsule.radius;
+  return probe;
+}
+
+ShapeProbe ProbePlane(const Vector3& p) {
+  ShapeProbe probe;
+  probe.found = true;
+  probe.signed_distance = p.z();
+  probe.point_B = Vector3(p.x(), p.y(), 0);
+  probe.normal_B = Vector3::UnitZ();
+  return probe;
+}
+
+// Outside a hull, GJK gives the nearest point; inside, the nearest boundary point of a
+// convex polytope is the projection onto the face plane with the least depth.
+ShapeProbe ProbeConvex(const ConvexHull& hull, const Vector3& p) {
+  ShapeProbe probe;
+  const geometry::SphereSupport point_support(geometry::Sphere{p, 0});
+  const geometry::HullSupport hull_support(hull);
+  const geometry::GjkResult gjk = geometry::CalcGjkDistance(hull_support, point_support);
+  if (!gjk.intersect && gjk.distance > 0) {
+    probe.found = true;
+    probe.signed_distance = gjk.distance;
+    probe.point_B = gjk.point_a;
+    probe.normal_B = gjk.normal;
+    return probe;
+  }
+  double best = -kInfinity;
+  int best_face = -1;
+  for (size_t f = 0; f < hull.faces.size(); ++f) {
+    const Vector3& n = hull.face_normals[f];
+    const double height = n.dot(p - hull.vertices[hull.faces[f][0]]);
+    if (height > best) best = height, best_face = static_cast<int>(f);
+  }
+  if (best_face < 0) return probe;
+  probe.found = true;
+  probe.signed_distance = std::min(best, 0.0);
+  probe.normal_B = hull.face_normals[best_face];
+  probe.point_B = p - probe.signed_distance * probe.normal_B;
+  return probe;
+}
+
+// The closest surface point, then the side of p against the closest feature's
+// angle-weighted pseudo-normal (Baerentzen & Aanaes 2005). A point deeper inside a
+// closed mesh than max_distance is still found, by the inside test.
+ShapeProbe ProbeMesh(const MeshBvh& bvh, const Vector3& p, double max_distance) {
+  ShapeProbe probe;
+  const geometry::TriangleMesh& mesh = bvh.mesh();
+  geometry::MeshClosestPoint closest = geometry::FindClosestPointOnMesh(bvh, p, max_distance);
+  if (!closest.found) {
+    if (!mesh.is_closed() || !mesh.bounds().Contains(p)) return probe;
+    const geometry::MeshSignedDistance inside = geometry::CalcSignedDistanceToMesh(bvh, p);
+    if (!inside.inside) return probe;
+    closest = inside.closest;
+  }
+  const Vector3 pseudo_normal = mesh.FeatureNormal(closest.triangle, closest.feature);
+  const Vector3 gap = p - closest.point;
+  const bool outside = gap.dot(pseudo_normal) > 0 || (!mesh.is_closed() && gap.dot(pseudo_normal) == 0);
+  probe.found = true;
+  probe.triangle = closest.triangle;
+  probe.point_B = closest.point;
+  probe.signed_distance = outside ? closest.distance : -closest.distance;
+  // on the surface the gap has no direction: the pseudo-normal is the outward normal
+  probe.normal_B = UnitOr(outside ? gap : Vector3(-gap), pseudo_normal);
+  if (closest.distance < 1e-12 * (1 + p.cwiseAbs().maxCoeff())) probe.normal_B = pseudo_normal;
+  return probe;
+}
+
+// Sweeps a sphere against a convex solid by conservative advancement over separating
+// planes (the idea of van den Bergen's GJK ray cast): at the current centre, the
+// nearest surface point and its normal n bound the solid by the plane through that
+// point; the sphere cannot touch the solid before its surface reaches that plane, at
+// t + gap / (-(b - a) . n). Moving parallel to or away from the plane never touches.
+// Flat faces converge in one step, curved surfaces in a few.
+ShapeSweep SweepConvex(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
+  ShapeSweep sweep;
+  const Vector3 motion = b - a;
+  double t = 0;
+  for (int step = 0; step < kMaxSweepSteps; ++step) {
+    const Vector3 centre = a + t * motion;
+    const ShapeProbe probe = ProbeShape(shape, centre, kInfinity);
+    if (!probe.found) return sweep;
+    const double gap = probe.signed_distance - r;
+    const double approach = -motion.dot(probe.normal_B);
+    if (gap <= kSweepTolerance) {
+      // touching at the start counts only when the motion goes into the surface
+      if (approach <= 0) return sweep;
+      sweep.hit = true;
+      sweep.t = t;
+      sweep.point_B = probe.point_B;
+      sweep.normal_B = probe.normal_B;
+      return sweep;
+    }
+    if (!(approach > 0)) return sweep;
+    t += gap / approach;
+    if (!(t <= 1)) return sweep;
+  }
+  return sweep;
+}
+
+// A sphere resting on a dense mesh (a proxy in contact: every tick starts so) lies
+// within the BVH's grown boxes of thousands of triangles, and a sweep pressing into the
+// surface visits them all. The nearest triangle, found by a pruned closest-point query,
+// bounds the answer: its own first contact t_n is no earlier than the mesh's, so the
+// mesh is swept only over [0, t_n], a short sweep that few boxes meet. The result is
+// the same first contact as a full sweep, except that a sphere resting within
+// kRestingGap of the nearest triangle and moving into it (deeper than the sweep's skin,
+// geometry::CalcSphereSweepSkin) stops at t = 0 at once.
+ShapeSweep SweepMesh(const MeshBvh& bvh, const Vector3& a, const Vector3& b, double r) {
+  ShapeSweep sweep;
+  Vector3 end = b;
+  geometry::SphereSweepHit bound;
+  if (r > 0) {
+    const geometry::MeshClosestPoint nearest =
+        geometry::FindClosestPointOnMesh(bvh, a, r + (b - a).norm());
+    if (nearest.found && nearest.distance <= r + kRestingGap) {
+      const Vector3 pseudo_normal = bvh.mesh().FeatureNormal(nearest.triangle, nearest.feature);
+      const Vector3 normal = UnitOr(a - nearest.point, pseudo_normal);
+      // it blocks when the motion would take it a sweep's skin deeper than touching
+      const double skin = geometry::CalcSphereSweepSkin(a, b, r);
+      if (nearest.distance + (b - a).dot(normal) < r - skin) {
+        sweep.hit = true;
+        sweep.point_B = nearest.point;
+        sweep.normal_B = normal;
+        sweep.triangle = nearest.triangle;
+        return sweep;
+      }
+    }
+    if (nearest.found) {
+      bound = geometry::SweepSphereTriangle(bvh.mesh().triangle(nearest.triangle), a, b, r);
+      bound.triangle = nearest.triangle;
+      if (bound.hit && bound.t == 0) end = a;
+      if (bound.hit && bound.t > 0) end = a + bound.t * (b - a);
+    }
+  }
+  geometry::SphereSweepHit hit;
+  if (end != a) {
+    hit = geometry::SweepSphereMesh(bvh, a, end, r);
+    // back to the parameter of the whole sweep a -> b
+    if (hit.hit && bound.hit) hit.t *= bound.t;
+  }
+  if (!hit.hit) hit = bound;
+  sweep.hit = hit.hit;
+  sweep.t = hit.t;
+  sweep.point_B = hit.point;
+  sweep.normal_B = hit.normal;
+  sweep.triangle = hit.triangle;
+  return sweep;
+}
+
+}  // namespace
+
+ShapeProbe ProbeShape(const scene::Shape& shape, const Vector3& p_B, double max_distance) {
+  if (!p_B.allFinite() || std::isnan(max_distance)) return {};
+  ShapeProbe probe;
+  switch (scene::TypeOf(shape)) {
+    case scene::ShapeType::kSphere: probe = ProbeSphere(std::get<SphereShape>(shape), p_B); break;
+    case scene::ShapeType::kBox: probe = ProbeBox(std::get<BoxShape>(shape), p_B); break;
+    case scene::ShapeType::kCapsule: probe = ProbeCapsule(std::get<CapsuleShape>(shape), p_B); break;
+    case scene::ShapeType::kPlane: probe = ProbePlane(p_B); break;
+    case scene::ShapeType::kConvex: probe = ProbeConvex(*std::get<ConvexShape>(shape).hull, p_B); break;
+    case scene::ShapeType::kMesh:
+      return ProbeMesh(*std::get<MeshShape>(shape).bvh, p_B, max_distance);
+    case scene::ShapeType::kCount: return {};
+  }
+  if (probe.signed_distance > max_distance) probe.found = false;
+  return probe;
+}
+
+ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const Vector3& b_B,
+                            double r) {
+  if (!a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || a_B == b_B) return {};
+  if (scene::TypeOf(shape) != scene::ShapeType::kMesh) return SweepConvex(shape, a_B, b_B, r);
+  return SweepMesh(*std::get<MeshShape>(shape).bvh, a_B, b_B, r);
+}
+
+Vector3 CalcShadingNormal(const scene::Shape& shape, int triangle, const Vector3& point_B,
+                          const Vector3& normal_B) {
+  if (scene::TypeOf(shape) != scene::ShapeType::kMesh || triangle < 0) return normal_B;
+  const geometry::TriangleMesh& mesh = std::get<MeshShape>(shape).bvh->mesh();
+  const geometry::ClosestPointOnTriangle on =
+      geometry::FindClosestPointOnTriangle(point_B, mesh.triangle(triangle));
+  const auto& corners = mesh.triangles()[triangle];
+  const Vector3 interpolated = (1 - on.u - on.v) * mesh.vertex_pseudo_normal(corners[0]) +
+                               on.u * mesh.vertex_pseudo_normal(corners[1]) +
+                               on.v * mesh.vertex_pseudo_normal(corners[2]);
+  const Vector3 shading = UnitOr(interpolated, normal_B);
+  // touched from behind (an open mesh's back), the vertex normals point away: keep the
+  // geometric normal
+  return shading.dot(normal_B) > 0 ? shading : normal_B;
+}
+
+}  // namespace hapticd::force

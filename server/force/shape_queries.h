@@ -1,0 +1,47 @@
+#pragma once
+
+// What an avatar asks of one shape, in the shape's body frame B: where is the nearest
+// surface (and how deep is a point inside), and where does a moving sphere first touch
+// it. One function per question, dispatched on the shape type; the proxy and penalty
+// methods need nothing else.
+
+#include "server/scene/shape.h"
+
+namespace hapticd::force {
+
+using geometry::Vector3;
+
+struct ShapeProbe {
+  bool found = false;          // false: nothing within max_distance (or non-finite input)
+  double signed_distance = 0;  // of p from the surface: < 0 inside the solid, m
+  Vector3 point_B = Vector3::Zero();   // nearest surface point
+  Vector3 normal_B = Vector3::UnitZ(); // unit outward normal there (from the solid towards p
+                                       // when outside)
+  int triangle = -1;                   // meshes: the triangle holding point_B
+};
+
+// Nearest surface point of shape to p_B and p's signed distance. Open meshes have no
+// inside: their sign is that of the side of the nearest feature's pseudo-normal. Only
+// surfaces within max_distance (>= 0) are looked for. Real-time safe.
+ShapeProbe ProbeShape(const scene::Shape& shape, const Vector3& p_B, double max_distance);
+
+struct ShapeSweep {
+  bool hit = false;
+  double t = 0;                         // centre at contact = a + t (b - a), t in [0, 1]
+  Vector3 point_B = Vector3::Zero();    // contact point on the surface
+  Vector3 normal_B = Vector3::UnitZ();  // unit, from the surface towards the centre
+  int triangle = -1;                    // meshes: the touched triangle
+};
+
+// First contact of a sphere of radius r >= 0 (0: a point) whose centre moves a_B -> b_B.
+// A surface the sphere already touches at t = 0 counts only if the motion goes into it,
+// so a proxy resting on a surface can slide along it. Real-time safe.
+ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const Vector3& b_B,
+                            double r);
+
+// The normal to render at a contact: the interpolated vertex normal of a mesh triangle
+// at point_B (Phong-style force shading), or normal_B itself for every other shape.
+Vector3 CalcShadingNormal(const scene::Shape& shape, int triangle, const Vector3& point_B,
+                          const Vector3& normal_B);
+
+}  // namespace hapticd::force

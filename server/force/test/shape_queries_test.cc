@@ -1,0 +1,188 @@
+// Per-shape avatar queries: exact probes, and sweeps against independent oracles (the
+// analytic ray-sphere root; the mesh sweep over the same surface triangulated).
+
+#include "server/force/shape_queries.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <random>
+
+#include "server/geometry/mesh_generators.h"
+#include "server/geometry/sphere_sweep.h"
+
+namespace hapticd::force {
+namespace {
+
+using geometry::MeshBvh;
+using geometry::TriangleMesh;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+TEST(ProbeShape, ExactDistancesAndNormals) {
+  const ShapeProbe sphere = ProbeShape(scene::SphereShape{0.5}, Vector3(0, 0.75, 0), kInf);
+  EXPECT_EQ(sphere.signed_distance, 0.25);
+  EXPECT_EQ(sphere.normal_B, Vector3::UnitY());
+  EXPECT_EQ(sphere.point_B, Vector3(0, 0.5, 0));
+
+  const scene::BoxShape box{Vector3(1, 2, 4)};
+  const ShapeProbe outside = ProbeShape(box, Vector3(4, 6, 0), kInf);
+  EXPECT_EQ(outside.signed_distance, 5.0);
+  EXPECT_EQ(outside.point_B, Vector3(1, 2, 0));
+  const ShapeProbe inside = ProbeShape(box, Vector3(0.5, -1.75, 0), kInf);
+  EXPECT_EQ(inside.signed_distance, -0.25);
+  EXPECT_EQ(inside.normal_B, -Vector3::UnitY());
+  EXPECT_EQ(inside.point_B, Vector3(0.5, -2, 0));
+
+  const ShapeProbe capsule = ProbeShape(scene::CapsuleShape{0.25, 1}, Vector3(0, 0, 1.5), kInf);
+  EXPECT_EQ(capsule.signed_distance, 0.25);
+  EXPECT_EQ(capsule.normal_B, Vector3::UnitZ());
+  const ShapeProbe side = ProbeShape(scene::CapsuleShape{0.25, 1}, Vector3(0.125, 0, 0.5), kInf);
+  EXPECT_EQ(side.signed_distance, -0.125);
+  EXPECT_EQ(side.normal_B, Vector3::UnitX());
+
+  const ShapeProbe plane = ProbeShape(scene::PlaneShape{}, Vector3(3, 4, -0.5), kInf);
+  EXPECT_EQ(plane.signed_distance, -0.5);
+  EXPECT_EQ(plane.point_B, Vector3(3, 4, 0));
+
+  // beyond max_distance: not found
+  EXPECT_FALSE(ProbeShape(scene::SphereShape{0.5}, Vector3(0, 2, 0), 1.0).found);
+}
+
+std::shared_ptr<const geometry::ConvexHull> Octahedron() {
+  std::vector<Vector3> points;
+  for (int k = 0; k < 3; ++k) points.push_back(Vector3::Unit(k)), points.push_back(-Vector3::Unit(k));
+  return std::make_shared<const geometry::ConvexHull>(geometry::BuildConvexHull(points));
+}
+
+TEST(ProbeShape, ConvexHullInsideAndOutside) {
+  const scene::ConvexShape octahedron{Octahedron()};
+  const double face = 1 / std::sqrt(3.0);
+  const ShapeProbe out = ProbeShape(octahedron, Vector3(1, 1, 1), kInf);
+  EXPECT_NEAR(out.signed_distance, std::sqrt(3.0) - face, 1e-12);
+  EXPECT_NEAR((out.normal_B - Vector3(1, 1, 1).normalized()).norm(), 0, 1e-9);
+  const ShapeProbe in = ProbeShape(octahedron, Vector3(0.1, 0.1, 0.1), kInf);
+  EXPECT_NEAR(in.signed_distance, 0.3 / std::sqrt(3.0) - face, 1e-12);
+  EXPECT_NEAR((in.normal_B - Vector3(1, 1, 1).normalized()).norm(), 0, 1e-12);
+}
+
+TEST(ProbeShape, ClosedMeshSignAndDeepInside) {
+  const auto mesh = std::make_shared<const TriangleMesh>(geometry::MakeIcosphere(8, 1.0));
+  const scene::MeshShape ball{std::make_shared<const MeshBvh>(mesh)};
+  EXPECT_LT(ProbeShape(ball, Vector3(0, 0, 0.9), 0.5).signed_distance, 0);
+  EXPECT_GT(ProbeShape(ball, Vector3(0, 0, 1.1), 0.5).signed_distance, 0);
+  // the centre is 1 m from the surface, beyond max_distance, and still found inside
+  const ShapeProbe centre = ProbeShape(ball, Vector3(0.01, 0, 0), 0.1);
+  EXPECT_TRUE(centre.found);
+  EXPECT_LT(centre.signed_distance, -0.9);
+}
+
+TEST(ProbeShape, NonFiniteInputFindsNothing) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(ProbeShape(scene::BoxShape{Vector3::Ones()}, Vector3(nan, 0, 0), kInf).found);
+  EXPECT_FALSE(SweepSphereShape(scene::SphereShape{1}, Vector3(nan, 0, 0), Vector3(3, 0, 0), 0.1).hit);
+  EXPECT_FALSE(SweepSphereShape(scene::SphereShape{1}, Vector3(3, 0, 0), Vector3(-3, 0, 0), nan).hit);
+}
+
+// The first root of |a + t d| = R + r, the analytic answer for a sphere.
+double RaySphereRoot(const Vector3& a, const Vector3& d, double radius) {
+  const double qa = d.squaredNorm(), qb = 2 * a.dot(d), qc = a.squaredNorm() - radius * radius;
+  const double disc = qb * qb - 4 * qa * qc;
+  if (disc < 0) return kInf;
+  const double t = (-qb - std::sqrt(disc)) / (2 * qa);
+  return t >= 0 && t <= 1 ? t : kInf;
+}
+
+TEST(SweepSphereShape, SphereMatchesTheAnalyticRoot) {
+  std::mt19937_64 random(11);
+  std::uniform_real_distribution<double> coordinate(-2, 2), radius(0, 0.3);
+  int hits = 0;
+  for (int i = 0; i < 5000; ++i) {
+    const Vector3 a(coordinate(random), coordinate(random), coordinate(random));
+    const Vector3 b(coordinate(random), coordinate(random), coordinate(random));
+    const double r = radius(random);
+    if (a.norm() < 1 + r + 1e-6) continue;  // start outside
+    const double expected = RaySphereRoot(a, b - a, 1 + r);
+    const ShapeSweep sweep = SweepSphereShape(scene::SphereShape{1}, a, b, r);
+    ASSERT_EQ(sweep.hit, expected <= 1) << i;
+    if (!sweep.hit) continue;
+    ++hits;
+    EXPECT_NEAR(sweep.t, expected, 1e-8);
+    const Vector3 centre = a + sweep.t * (b - a);
+    EXPECT_NEAR((sweep.normal_B - centre.normalized()).norm(), 0, 1e-8);
+  }
+  EXPECT_GT(hits, 500);
+}
+
+// Box and hull against the mesh sweep over the same surface (an independent
+// implementation): the same hit or miss, and each one's contact distance equal to r at
+// the other's time.
+void CompareWithMeshSweep(const scene::Shape& shape, const TriangleMesh& surface, uint64_t seed) {
+  const MeshBvh bvh(std::make_shared<const TriangleMesh>(surface));
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<double> coordinate(-2, 2), radius(0, 0.3);
+  int hits = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Vector3 a(coordinate(random), coordinate(random), coordinate(random));
+    const Vector3 b(coordinate(random), coordinate(random), coordinate(random));
+    const double r = radius(random);
+    if (ProbeShape(shape, a, kInf).signed_distance < r + 1e-6) continue;  // start apart
+    const ShapeSweep sweep = SweepSphereShape(shape, a, b, r);
+    const geometry::SphereSweepHit oracle = geometry::SweepSphereMesh(bvh, a, b, r);
+    if (sweep.hit != oracle.hit) {
+      // only a graze within the tolerances may disagree
+      const double t = sweep.hit ? sweep.t : oracle.t;
+      EXPECT_NEAR(ProbeShape(shape, a + t * (b - a), kInf).signed_distance, r, 1e-7) << i;
+      continue;
+    }
+    if (!sweep.hit) continue;
+    ++hits;
+    EXPECT_NEAR(sweep.t, oracle.t, 1e-6 / (b - a).norm() + 1e-9) << i;
+    EXPECT_NEAR(ProbeShape(shape, a + sweep.t * (b - a), kInf).signed_distance, r, 1e-8) << i;
+  }
+  EXPECT_GT(hits, 300);
+}
+
+TEST(SweepSphereShape, BoxAgreesWithItsTriangulatedSurface) {
+  CompareWithMeshSweep(scene::BoxShape{Vector3(0.5, 0.75, 1)},
+                       geometry::MakeBoxMesh(Vector3(0.5, 0.75, 1), 2), 12);
+}
+
+TEST(SweepSphereShape, ConvexHullAgreesWithItsTriangulatedSurface) {
+  const auto hull = Octahedron();
+  std::vector<std::array<int, 3>> faces(hull->faces.begin(), hull->faces.end());
+  CompareWithMeshSweep(scene::ConvexShape{hull}, TriangleMesh(hull->vertices, faces), 13);
+}
+
+TEST(SweepSphereShape, RestingOnASurfaceOnlyMotionIntoItHits) {
+  const scene::BoxShape box{Vector3(1, 1, 1)};
+  const Vector3 on_top(0.2, 0.3, 1.1);  // a 0.1 sphere resting on the top face
+  EXPECT_FALSE(SweepSphereShape(box, on_top, on_top + Vector3(0.3, 0, 0), 0.1).hit);
+  EXPECT_FALSE(SweepSphereShape(box, on_top, on_top + Vector3(0, 0, 0.3), 0.1).hit);
+  const ShapeSweep into = SweepSphereShape(box, on_top, on_top + Vector3(0.1, 0, -0.3), 0.1);
+  EXPECT_TRUE(into.hit);
+  EXPECT_EQ(into.t, 0.0);
+  EXPECT_EQ(into.normal_B, Vector3::UnitZ());
+  // the plane: moving along it never hits, into it at once
+  EXPECT_FALSE(SweepSphereShape(scene::PlaneShape{}, Vector3(0, 0, 0), Vector3(1, 0, 0), 0).hit);
+  EXPECT_TRUE(SweepSphereShape(scene::PlaneShape{}, Vector3(0, 0, 0.5), Vector3(1, 0, -0.5), 0).hit);
+}
+
+TEST(ShadingNormal, InterpolatesVertexNormalsOnMeshesOnly) {
+  EXPECT_EQ(CalcShadingNormal(scene::SphereShape{1}, -1, Vector3::UnitX(), Vector3::UnitX()),
+            Vector3::UnitX());
+  const auto mesh = std::make_shared<const TriangleMesh>(geometry::MakeIcosphere(1, 1.0));
+  const scene::MeshShape ball{std::make_shared<const MeshBvh>(mesh)};
+  const geometry::Triangle t = mesh->triangle(0);
+  const Vector3 face = (t.v1 - t.v0).cross(t.v2 - t.v0).normalized();
+  // at a vertex: that vertex's normal (radial on an icosphere)
+  EXPECT_NEAR((CalcShadingNormal(ball, 0, t.v1, face) - t.v1.normalized()).norm(), 0, 1e-9);
+  // at the centroid of an equilateral facet: the facet normal
+  const Vector3 centroid = (t.v0 + t.v1 + t.v2) / 3;
+  EXPECT_NEAR((CalcShadingNormal(ball, 0, centroid, face) - face).norm(), 0, 1e-9);
+}
+
+}  // namespace
+}  // namespace hapticd::force

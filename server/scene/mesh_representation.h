@@ -1,0 +1,51 @@
+#pragma once
+
+// "Model no more than a scene needs": when a client adds a mesh, find the cheapest
+// representation that renders it within the scene's tolerance. Cheapest first: a
+// sphere, a box, a capsule (primitive fits), the convex hull (where the mesh is convex),
+// and the mesh itself. A client may pin the representation instead.
+
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "server/geometry/triangle_mesh.h"
+#include "server/scene/pose.h"
+#include "server/scene/shape.h"
+
+namespace hapticd::scene {
+
+enum class Representation { kAuto, kSphere, kBox, kCapsule, kConvex, kMesh, kCount };
+
+// "auto", "sphere", "box", "capsule", "convex", "mesh".
+std::string_view RepresentationName(Representation representation);
+
+struct RepresentationChoice {
+  Representation chosen = Representation::kAuto;  // kAuto: the object was not a mesh
+  // Bound on the distance between the mesh's surface and the chosen representation's
+  // surface (a two-sided Hausdorff bound, m); 0 for the mesh itself; infinite for a
+  // pinned representation that the mesh is not proven to cover (open or not star-shaped
+  // mesh: reason then gives the one-sided distance).
+  double error_bound = 0;
+  // Pose of the chosen shape in the mesh's frame (a fitted box or capsule is turned and
+  // moved; identity for the hull and the mesh).
+  Pose X_MS;
+  // Why: e.g. "sphere fit within 3.1e-05 m <= tolerance 1e-04 m".
+  std::string reason;
+};
+
+struct RepresentedMesh {
+  Shape shape;                  // in the frame S = X_MS applied to the mesh frame M
+  RepresentationChoice choice;
+};
+
+// Chooses and builds the representation of mesh (vertices in M). tolerance > 0 (m).
+// pin: kAuto to choose, or the representation to use whatever its error (kConvex of a
+// non-convex mesh is allowed and reports its error; kSphere/kBox/kCapsule fit anyway).
+// Allocates and may take a while (hull, BVH): call it off the real-time thread.
+// Throws std::invalid_argument naming the problem when pin is impossible (e.g. kConvex
+// of a flat mesh).
+RepresentedMesh ChooseMeshRepresentation(std::shared_ptr<const geometry::TriangleMesh> mesh,
+                                         double tolerance, Representation pin = Representation::kAuto);
+
+}  // namespace hapticd::scene

@@ -1,0 +1,91 @@
+#pragma once
+
+// Builds scene snapshots off the real-time thread. This is the scene's validation
+// boundary: a bad edit throws SceneError with a message that names the field and value
+// ("objects[plate].shape.half_extents[2] is -0.001; it must be a finite number > 0"),
+// and leaves the builder as it was.
+
+#include <array>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include "server/geometry/triangle_mesh.h"
+#include "server/scene/scene_snapshot.h"
+
+namespace hapticd::scene {
+
+class SceneError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+// Shapes as a client describes them (before validation and representation choice).
+struct SphereSpec {
+  double radius = 0;
+};
+struct BoxSpec {
+  Vector3 half_extents = Vector3::Zero();
+};
+struct CapsuleSpec {
+  double radius = 0;
+  double half_length = 0;
+};
+struct PlaneSpec {};
+struct ConvexSpec {
+  std::vector<Vector3> points;  // in B; their hull must be 3-dimensional
+};
+struct MeshSpec {
+  std::vector<Vector3> vertices;  // in B
+  std::vector<std::array<int, 3>> triangles;
+  Representation pin = Representation::kAuto;
+};
+using ShapeSpec = std::variant<SphereSpec, BoxSpec, CapsuleSpec, PlaneSpec, ConvexSpec, MeshSpec>;
+
+struct ObjectSpec {
+  std::string name;  // unique in the scene, non-empty
+  ShapeSpec shape;
+  // Pose of the frame the shape is given in (a mesh's frame M; the object's stored X_WB
+  // is then X_WM X_MS, where its representation sits). Rotation orthonormal and
+  // right-handed (within 1e-6).
+  Pose X_WB;
+  Material material;
+  Motion motion = Motion::kStatic;
+  Vector3 v_WB = Vector3::Zero();  // kinematic only
+  Vector3 w_WB = Vector3::Zero();
+};
+
+class SceneBuilder {
+ public:
+  explicit SceneBuilder(SceneSettings settings = {});
+  // Starts from the objects of base (sharing their geometry).
+  explicit SceneBuilder(const SceneSnapshot& base);
+
+  // Validates spec, chooses a mesh's representation, builds hulls and BVHs. Returns the
+  // new object.
+  const SceneObject& Add(const ObjectSpec& spec);
+  // Replaces the object named spec.name (which must exist) with spec.
+  const SceneObject& Update(const ObjectSpec& spec);
+  void Remove(std::string_view name);
+  void SetMaterial(std::string_view name, const Material& material);
+  // Moves a kinematic object (a static one is refused) and sets its velocity. X_WB and
+  // v_WB are those of the frame its spec was given in, as in ObjectSpec.
+  void MoveKinematic(std::string_view name, const Pose& X_WB, const Vector3& v_WB,
+                     const Vector3& w_WB);
+
+  const SceneSettings& settings() const { return settings_; }
+  int num_objects() const { return static_cast<int>(objects_.size()); }
+  // A snapshot of the objects so far (the geometry is shared, not copied).
+  std::shared_ptr<const SceneSnapshot> Build(uint64_t version) const;
+
+ private:
+  SceneObject& FindOrThrow(std::string_view name);
+
+  SceneSettings settings_;
+  std::vector<SceneObject> objects_;
+};
+
+}  // namespace hapticd::scene

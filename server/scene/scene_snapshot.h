@@ -1,0 +1,40 @@
+#pragma once
+
+// An immutable scene: the objects a tick renders against. A tick reads one snapshot
+// from start to end; edits build a new one (scene_builder.h) and publish it
+// (snapshot_publisher.h). Everything here is const and safe to read from any thread.
+
+#include <cstdint>
+#include <span>
+#include <string_view>
+#include <vector>
+
+#include "server/scene/scene_object.h"
+
+namespace hapticd::scene {
+
+struct SceneSettings {
+  // How far (m) a cheaper representation of a mesh may be from the mesh.
+  double tolerance = 1e-4;
+};
+
+class SceneSnapshot {
+ public:
+  SceneSnapshot(std::vector<SceneObject> objects, SceneSettings settings, uint64_t version);
+
+  // Increases with every published edit.
+  uint64_t version() const { return version_; }
+  const SceneSettings& settings() const { return settings_; }
+  std::span<const SceneObject> objects() const { return objects_; }
+  int num_objects() const { return static_cast<int>(objects_.size()); }
+  const SceneObject& object(int i) const { return objects_[i]; }
+  // Index of the object named name, or -1.
+  int FindObject(std::string_view name) const;
+
+ private:
+  std::vector<SceneObject> objects_;
+  SceneSettings settings_;
+  uint64_t version_;
+};
+
+}  // namespace hapticd::scene

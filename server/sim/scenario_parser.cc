@@ -1,0 +1,354 @@
+#include "server/sim/scenario_parser.h"
+
+#include <fmt/format.h>
+#include <rapidjson/error/en.h>
+
+#include <array>
+#include <cmath>
+#include <fstream>
+#include <iterator>
+
+#include "server/scene/mesh_file.h"
+#include "server/sim/hand_device.h"
+#include "server/sim/json_fields.h"
+#include "server/sim/scenario_overrides.h"
+
+namespace hapticd::sim {
+namespace {
+
+using scene::ObjectSpec;
+
+// The names of an enum's values 0 .. last, as its name function spells them: choice i of
+// ReadChoice is then the value i.
+template <typename Enum>
+std::vector<std::string_view> NamesOf(Enum last, std::string_view (*name_of)(Enum)) {
+  std::vector<std::string_view> names;
+  for (int i = 0; i <= static_cast<int>(last); ++i) names.push_back(name_of(static_cast<Enum>(i)));
+  return names;
+}
+
+template <typename Enum>
+Enum ReadEnum(const JsonAt& at, const std::vector<std::string_view>& names) {
+  return static_cast<Enum>(ReadChoice(at, names));
+}
+
+// "line L, column C" of a byte offset into text (both 1-based).
+std::string LineAndColumn(std::string_view text, size_t offset) {
+  offset = std::min(offset, text.size());
+  const std::string_view before = text.substr(0, offset);
+  const size_t line = 1 + std::count(before.begin(), before.end(), '\n');
+  const size_t line_start = before.rfind('\n');
+  const size_t column = offset - (line_start == std::string_view::npos ? 0 : line_start + 1) + 1;
+  return fmt::format("line {}, column {}", line, column);
+}
+
+// A mesh given inline: vertices [[x, y, z], ...] and triangles [[i, j, k], ...].
+void ReadInlineMesh(const JsonObject& shape, scene::MeshSpec& mesh) {
+  const JsonAt vertices = shape.Required("vertices");
+  const int num_vertices = ReadArraySize(vertices);
+  for (int i = 0; i < num_vertices; ++i) mesh.vertices.push_back(ReadVector3(Element(vertices, i)));
+  const JsonAt triangles = shape.Required("triangles");
+  const int num_triangles = ReadArraySize(triangles);
+  for (int t = 0; t < num_triangles; ++t) {
+    const JsonAt triangle = Element(triangles, t);
+    if (ReadArraySize(triangle) != 3) {
+      throw ScenarioError(
+          fmt::format("{} has {} elements; it must be [i, j, k]", triangle.path, triangle.value.Size()));
+    }
+    std::array<int, 3> indices;
+    for (int c = 0; c < 3; ++c) {
+      const JsonAt index = Element(triangle, c);
+      if (!index.value.IsInt() || index.value.GetInt() < 0 || index.value.GetInt() >= num_vertices) {
+        const std::string value = index.value.IsNumber() ? fmt::format("{}", index.value.GetDouble())
+                                                         : std::string(JsonTypeName(index.value));
+        throw ScenarioError(fmt::format("{} is {}; it must be a vertex index, an integer in [0, {})",
+                                        index.path, value, num_vertices));
+      }
+      indices[c] = index.value.GetInt();
+    }
+    mesh.triangles.push_back(indices);
+  }
+}
+
+// A mesh from an OBJ or STL file, relative to base_dir.
+void ReadMeshFromFile(const JsonAt& file_at, const std::filesystem::path& base_dir, scene::MeshSpec& mesh) {
+  const std::string file = ReadString(file_at);
+  const std::filesystem::path resolved = (base_dir / file).lexically_normal();
+  std::error_code error;
+  if (!std::filesystem::exists(resolved, error)) {
+    throw ScenarioError(fmt::format("{} is \"{}\"; {} does not exist", file_at.path, file,
+                                    std::filesystem::absolute(resolved, error).string()));
+  }
+  try {
+    scene::MeshData data = scene::ReadMeshFile(resolved);
+    mesh.vertices = std::move(data.vertices);
+    mesh.triangles = std::move(data.triangles);
+  } catch (const scene::MeshFileError& e) {
+    throw ScenarioError(fmt::format("{}: {}", file_at.path, e.what()));
+  }
+}
+
+// The shape: its type picks its fields.
+scene::ShapeSpec ReadShape(const JsonAt& at, const std::filesystem::path& base_dir) {
+  // the type first, so that the known fields can depend on it
+  const JsonObject any_shape(
+      at, {"type", "radius", "half_extents", "half_length", "points", "vertices", "triangles", "file"});
+  const auto type = ReadEnum<scene::ShapeType>(any_shape.Required("type"),
+                                               NamesOf(scene::ShapeType::kMesh, scene::ShapeTypeName));
+  switch (type) {
+    case scene::ShapeType::kSphere: {
+      const JsonObject shape(at, {"type", "radius"});
+      return scene::SphereSpec{ReadNumber(shape.Required("radius"))};
+    }
+    case scene::ShapeType::kBox: {
+      const JsonObject shape(at, {"type", "half_extents"});
+      return scene::BoxSpec{ReadVector3(shape.Required("half_extents"))};
+    }
+    case scene::ShapeType::kCapsule: {
+      const JsonObject shape(at, {"type", "radius", "half_length"});
+      return scene::CapsuleSpec{ReadNumber(shape.Required("radius")),
+                                ReadNumber(shape.Required("half_length"))};
+    }
+    case scene::ShapeType::kPlane: {
+      const JsonObject shape(at, {"type"});
+      return scene::PlaneSpec{};
+    }
+    case scene::ShapeType::kConvex: {
+      const JsonObject shape(at, {"type", "points"});
+      const JsonAt points = shape.Required("points");
+      scene::ConvexSpec convex;
+      const int n = ReadArraySize(points);
+      for (int i = 0; i < n; ++i) convex.points.push_back(ReadVector3(Element(points, i)));
+      return convex;
+    }
+    case scene::ShapeType::kMesh:
+    case scene::ShapeType::kCount: {
+      const JsonObject shape(at, {"type", "vertices", "triangles", "file"});
+      scene::MeshSpec mesh;
+      // a file, or vertices and triangles, never both
+      if (const auto file = shape.Optional("file")) {
+        if (shape.Has("vertices") || shape.Has("triangles")) {
+          throw ScenarioError(fmt::format(
+              "{} has a file and inline vertices or triangles; give one or the other", at.path));
+        }
+        ReadMeshFromFile(*file, base_dir, mesh);
+      } else {
+        ReadInlineMesh(shape, mesh);
+      }
+      return mesh;
+    }
+  }
+  return scene::SphereSpec{};
+}
+
+scene::Material ReadMaterial(const JsonAt& at) {
+  const JsonObject object(
+      at, {"stiffness", "damping", "static_friction", "dynamic_friction", "force_shading"});
+  scene::Material material;
+  material.stiffness = ReadNumber(object.Required("stiffness"));
+  if (const auto damping = object.Optional("damping")) material.damping = ReadNumber(*damping);
+  if (const auto mu = object.Optional("static_friction")) material.static_friction = ReadNumber(*mu);
+  if (const auto mu = object.Optional("dynamic_friction")) material.dynamic_friction = ReadNumber(*mu);
+  if (const auto shading = object.Optional("force_shading")) material.force_shading = ReadBool(*shading);
+  if (const auto error = scene::ValidateMaterial(material, at.path)) throw ScenarioError(*error);
+  return material;
+}
+
+ObjectSpec ReadObject(const JsonAt& at, const std::filesystem::path& base_dir) {
+  const JsonObject object(
+      at, {"name", "shape", "position", "rotation", "material", "motion", "representation"});
+  ObjectSpec spec;
+  spec.name = ReadString(object.Required("name"));
+  spec.shape = ReadShape(object.Required("shape"), base_dir);
+  spec.X_WB.translation = ReadVector3(object.Required("position"));
+  if (const auto rotation = object.Optional("rotation")) spec.X_WB.rotation = ReadRotation(*rotation);
+  spec.material = ReadMaterial(object.Required("material"));
+  // extension: a kinematic object moving at a constant velocity
+  if (const auto motion_at = object.Optional("motion")) {
+    const JsonObject motion(*motion_at, {"velocity", "angular_velocity"});
+    spec.motion = scene::Motion::kKinematic;
+    if (const auto v = motion.Optional("velocity")) spec.v_WB = ReadVector3(*v);
+    if (const auto w = motion.Optional("angular_velocity")) spec.w_WB = ReadVector3(*w);
+  }
+  // extension: a mesh's pinned representation
+  if (const auto representation = object.Optional("representation")) {
+    auto* mesh = std::get_if<scene::MeshSpec>(&spec.shape);
+    if (mesh == nullptr) {
+      const auto type = static_cast<scene::ShapeType>(spec.shape.index());
+      throw ScenarioError(fmt::format("{} is only for mesh shapes; this shape is a {}", representation->path,
+                                      scene::ShapeTypeName(type)));
+    }
+    mesh->pin = ReadEnum<scene::Representation>(
+        *representation, NamesOf(scene::Representation::kMesh, scene::RepresentationName));
+  }
+  return spec;
+}
+
+void ReadScene(const JsonAt& at, const std::filesystem::path& base_dir, Scenario& scenario) {
+  const JsonObject scene(at, {"objects", "tolerance"});
+  if (const auto tolerance = scene.Optional("tolerance")) {
+    scenario.scene_settings.tolerance = ReadPositive(*tolerance);
+  }
+  const JsonAt objects = scene.Required("objects");
+  const int n = ReadArraySize(objects);
+  for (int i = 0; i < n; ++i) scenario.objects.push_back(ReadObject(Element(objects, i), base_dir));
+}
+
+void ReadAvatar(const JsonAt& at, force::AvatarSettings& avatar) {
+  const JsonObject object(at, {"type", "radius", "method", "force_shading"});
+  avatar.type = ReadEnum<force::AvatarType>(object.Required("type"),
+                                            NamesOf(force::AvatarType::kSphere, force::AvatarTypeName));
+  // a point's radius is 0 unless given; a sphere's must be given
+  if (avatar.type == force::AvatarType::kSphere || object.Has("radius")) {
+    avatar.radius = ReadNonNegative(object.Required("radius"));
+  }
+  avatar.method = ReadEnum<force::ForceMethod>(
+      object.Required("method"), NamesOf(force::ForceMethod::kFingerProxy, force::ForceMethodName));
+  if (const auto shading = object.Optional("force_shading")) avatar.force_shading = ReadBool(*shading);
+}
+
+void ReadDevice(const JsonAt& at, Scenario& scenario) {
+  const JsonObject object(at, {"mode", "mass", "damping", "max_force", "position_resolution", "start",
+                               "virtual_mass", "virtual_damping"});
+  force::SessionSettings& session = scenario.session;
+  session.device.mode = ReadEnum<force::DeviceMode>(
+      object.Required("mode"), NamesOf(force::DeviceMode::kAdmittance, force::DeviceModeName));
+  scenario.device.mass = ReadPositive(object.Required("mass"));
+  scenario.device.damping = ReadNonNegative(object.Required("damping"));
+  session.device.max_force = ReadPositive(object.Required("max_force"));
+  if (const auto resolution = object.Optional("position_resolution")) {
+    scenario.device.position_resolution = ReadNonNegative(*resolution);
+  }
+  scenario.device.start_W = ReadVector3(object.Required("start"));
+  if (const auto mass = object.Optional("virtual_mass")) {
+    session.admittance.virtual_mass = ReadPositive(*mass);
+  }
+  if (const auto damping = object.Optional("virtual_damping")) {
+    session.admittance.virtual_damping = ReadNonNegative(*damping);
+  }
+}
+
+void ReadHand(const JsonAt& at, HandSpec& hand) {
+  const JsonObject object(at, {"mass", "stiffness", "damping", "path"});
+  hand.mass = ReadNonNegative(object.Required("mass"));
+  hand.stiffness = ReadNonNegative(object.Required("stiffness"));
+  hand.damping = ReadNonNegative(object.Required("damping"));
+  const JsonAt path = object.Required("path");
+  const int n = ReadArraySize(path);
+  if (n == 0) {
+    throw ScenarioError(fmt::format("{} is empty; it needs at least one [t, x, y, z] point", path.path));
+  }
+  for (int i = 0; i < n; ++i) {
+    const JsonAt point = Element(path, i);
+    if (ReadArraySize(point) != 4) {
+      throw ScenarioError(
+          fmt::format("{} has {} elements; it must be [t, x, y, z]", point.path, point.value.Size()));
+    }
+    PathPoint p;
+    p.t = ReadNumber(Element(point, 0));
+    for (int k = 0; k < 3; ++k) p.p_W[k] = ReadNumber(Element(point, k + 1));
+    // times strictly increase
+    if (i > 0 && !(p.t > hand.path.back().t)) {
+      throw ScenarioError(fmt::format("{}[0] is {}; it must be > {}, the time of {}[{}]", point.path, p.t,
+                                      hand.path.back().t, path.path, i - 1));
+    }
+    hand.path.push_back(p);
+  }
+}
+
+void ReadChannel(const JsonAt& at, ChannelSpec& channel) {
+  const JsonObject object(at, {"delay_ms", "jitter_ms", "loss", "seed"});
+  if (const auto delay = object.Optional("delay_ms")) channel.delay_s = ReadNonNegative(*delay) / 1000;
+  if (const auto jitter = object.Optional("jitter_ms")) channel.jitter_s = ReadNonNegative(*jitter) / 1000;
+  if (const auto loss = object.Optional("loss")) channel.loss = ReadInRange(*loss, 0, 1);
+  if (const auto seed = object.Optional("seed")) channel.seed = ReadUnsigned(*seed);
+}
+
+// The session settings' own check, in the scenario's words: the admittance avatar's
+// fields are device fields here.
+void ValidateSession(const force::SessionSettings& session) {
+  std::optional<std::string> error = force::ValidateSessionSettings(session);
+  if (!error) return;
+  constexpr std::string_view kAdmittance = "admittance.";
+  if (error->starts_with(kAdmittance)) error->replace(0, kAdmittance.size(), "device.");
+  throw ScenarioError(*error);
+}
+
+// The hand-device body must be integrable at the loop's rate (hand_device.h).
+void ValidatePlant(const Scenario& scenario) {
+  const double mass = scenario.hand.mass + scenario.device.mass;
+  const double dt = 1 / scenario.rate_hz;
+  if (CalcSubsteps(mass, scenario.hand.stiffness, 0, dt) == 0) {
+    throw ScenarioError(fmt::format(
+        "hand.stiffness is {}; with {} kg moving (hand.mass + device.mass) it is too stiff to simulate at "
+        "rate_hz {}",
+        scenario.hand.stiffness, mass, scenario.rate_hz));
+  }
+  if (CalcSubsteps(mass, 0, scenario.hand.damping + scenario.device.damping, dt) == 0) {
+    throw ScenarioError(fmt::format(
+        "hand.damping + device.damping is {}; with {} kg moving (hand.mass + device.mass) it is too much to "
+        "simulate at rate_hz {}",
+        scenario.hand.damping + scenario.device.damping, mass, scenario.rate_hz));
+  }
+}
+
+Scenario ReadScenario(const JsonAt& root, const std::filesystem::path& base_dir) {
+  const JsonObject top(
+      root, {"rate_hz", "duration_s", "scene", "avatar", "device", "hand", "channel", "control"});
+  Scenario scenario;
+  // time: a whole number of ticks, at least one
+  scenario.rate_hz = ReadPositive(top.Required("rate_hz"));
+  scenario.duration_s = ReadPositive(top.Required("duration_s"));
+  const double ticks = std::round(scenario.duration_s * scenario.rate_hz);
+  if (!(ticks >= 1 && ticks <= kMaxTicks)) {
+    throw ScenarioError(fmt::format("duration_s is {}; at rate_hz {} that is {} ticks; it must be 1 to {}",
+                                    scenario.duration_s, scenario.rate_hz, ticks, kMaxTicks));
+  }
+  scenario.ticks = static_cast<int64_t>(ticks);
+
+  ReadScene(top.Required("scene"), base_dir, scenario);
+  ReadAvatar(top.Required("avatar"), scenario.session.avatar);
+  ReadDevice(top.Required("device"), scenario);
+  ReadHand(top.Required("hand"), scenario.hand);
+  if (const auto channel = top.Optional("channel")) ReadChannel(*channel, scenario.channel);
+  if (const auto control_at = top.Optional("control")) {
+    const JsonObject control(*control_at, {"passivity"});
+    if (const auto passivity = control.Optional("passivity")) {
+      scenario.session.control.passivity = ReadBool(*passivity);
+    }
+  }
+  scenario.session.device.rate_hz = scenario.rate_hz;
+  ValidateSession(scenario.session);
+  ValidatePlant(scenario);
+  return scenario;
+}
+
+}  // namespace
+
+Scenario ParseScenario(std::string_view json, const std::filesystem::path& base_dir,
+                       std::span<const std::string> overrides) {
+  rapidjson::Document document;
+  // iterative: deep nesting cannot overflow the stack
+  constexpr unsigned kFlags = rapidjson::kParseFullPrecisionFlag | rapidjson::kParseIterativeFlag;
+  document.Parse<kFlags>(json.data(), json.size());
+  if (document.HasParseError()) {
+    throw ScenarioError(fmt::format("invalid JSON at {}: {}", LineAndColumn(json, document.GetErrorOffset()),
+                                    rapidjson::GetParseError_En(document.GetParseError())));
+  }
+  for (const std::string& text : overrides) ApplyOverride(document, ParseOverride(text));
+  return ReadScenario(JsonAt{document, ""}, base_dir);
+}
+
+Scenario LoadScenario(const std::filesystem::path& path, std::span<const std::string> overrides) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) {
+    throw ScenarioError(std::filesystem::exists(path, error) ? "the scenario is not a regular file"
+                                                              : "the scenario file does not exist");
+  }
+  std::ifstream file(path, std::ios::binary);
+  const std::string json((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  if (!file.is_open() || file.bad()) throw ScenarioError("the scenario file cannot be read");
+  return ParseScenario(json, path.parent_path(), overrides);
+}
+
+}  // namespace hapticd::sim

@@ -1,0 +1,107 @@
+#pragma once
+
+// The deterministic closed-loop simulator behind hapticd-sim: a scenario's hand, device,
+// network channel and renderer (one force::RenderSession, the server's code) run in
+// simulated time. No wall clock, no sockets; the only randomness is the channel's, drawn
+// from channel.seed, so a scenario always gives the same run, bit for bit.
+//
+// Theory of operation. Tick k covers [t_k, t_k+1), t_k = k / rate_hz, dt = 1 / rate_hz,
+// for k = 0 .. ticks-1. Each tick, in this order:
+//
+//   device                       channel up             renderer
+//   sample x_k -> (q_k, v_k,  --- delay, jitter, --->   newest state by t_k (else
+//   f_held or f_sensed)          loss                   fresh = false) -> Tick(dt)
+//                                                                |
+//   hold F_k over the tick    <-- delay, jitter, ---    command (force or pose)
+//   (newest command by t_k)       loss
+//   integrate to x_k+1; energy += F_k . (x_k+1 - x_k)
+//
+// - Sample: the sensed position q_k is x_k rounded to the nearest multiple of
+//   device.position_resolution (per axis; 0: exact). The sensed velocity is the finite
+//   difference (q_k - q_k-1) / dt when position_resolution > 0 (zero at tick 0), and the
+//   true velocity when it is 0. f_held is F_k-1, the force the device held while it moved
+//   to x_k (zero at tick 0), for the passivity observer.
+// - Impedance: F_k is the newest force command received, saturated to device.max_force
+//   (zero before the first, and in place of a non-finite one), held constant over the
+//   tick (zero-order hold) while hand and handle move as one body (hand_device.h).
+// - Admittance: the device is position-controlled and tracks ideally: over tick k it
+//   moves the handle from x_k to the newest pose command received (staying put before
+//   the first), arriving at t_k+1, so its velocity is the displacement over dt. The
+//   robot carries the hand's inertia; the force it senses is the hand's spring-damper
+//   force K_h (path - x) + B_h (path' - v) at the sample (hand.mass is not used). The
+//   energy counts the force the device applies to the hand, -f_hand,k, over the
+//   displacement: positive means the robot pushed the person.
+// - Kinematic objects (the "motion" extension) move at their constant velocity: after
+//   each tick their poses are set to the exact pose at t_k+1 with
+//   SceneBuilder::MoveKinematic and a new snapshot is built, as a client's edit would.
+// - Measures at every sample x_k (and the final x_ticks), true positions throughout:
+//   max_penetration_m = max(0, depth of the device point in the deepest object);
+//   max_avatar_penetration_m the same for a sphere of the avatar's radius at the device
+//   point; max_proxy_penetration_m the same for the avatar where the renderer put it
+//   (the proxy, the device point for penalty, the commanded pose for admittance).
+
+#include <functional>
+#include <memory>
+
+#include "server/force/render_session.h"
+#include "server/scene/scene_builder.h"
+#include "server/sim/scenario.h"
+
+namespace hapticd::sim {
+
+// One tick, as the trace CSV writes it (FORMAT.md's columns).
+struct TraceRow {
+  double t = 0;                            // t_k, s
+  Vector3 p_device_W = Vector3::Zero();    // true handle position x_k
+  Vector3 v_device_W = Vector3::Zero();    // true handle velocity at t_k
+  Vector3 avatar_W = Vector3::Zero();      // the renderer's avatar (admittance: the commanded pose)
+  Vector3 f_W = Vector3::Zero();           // impedance: F_k held over the tick; admittance: f_hand,k
+  bool contact = false;                    // the renderer's avatar touched an object this tick
+};
+
+struct SimSummary {
+  int64_t ticks = 0;
+  double max_force_n = 0;       // max |F_k| (impedance) or max |f_hand,k| (admittance)
+  double max_penetration_m = 0;
+  double energy_j = 0;          // sum F_k . (x_k+1 - x_k), see the theory of operation
+  double max_avatar_penetration_m = 0;
+  double max_proxy_penetration_m = 0;
+  int64_t contact_ticks = 0;
+  Vector3 final_device_W = Vector3::Zero();  // x_ticks
+  Vector3 final_avatar_W = Vector3::Zero();  // the avatar after the last tick
+  double observed_energy_j = 0;              // what the session's passivity observer saw
+  force::SessionCounters counters;           // the session's event counters
+  uint64_t packets_lost_up = 0;
+  uint64_t packets_lost_down = 0;
+  int64_t ticks_without_input = 0;    // the renderer got no new device state
+  int64_t ticks_without_command = 0;  // the device got no new command
+  int substeps = 0;                   // integrator substeps per tick (impedance)
+};
+
+using TraceSink = std::function<void(const TraceRow&)>;
+
+class Simulator {
+ public:
+  // Builds the scene and the render session. Throws ScenarioError naming the field when
+  // the scene builder refuses an object ("scene.objects[1].shape.radius is -1; ...").
+  explicit Simulator(Scenario scenario);
+
+  // Runs every tick, calling trace (when set) once per tick in order. Call once.
+  SimSummary Run(const TraceSink& trace = {});
+
+ private:
+  // Moves the kinematic objects to their poses at time t and builds the next snapshot
+  // (versions start at 1 for the scene as given; tick k renders version k + 1).
+  void MoveKinematicObjects(double t, uint64_t version);
+  // Deepest penetration (>= 0) of a sphere of radius r at c_W into the current scene.
+  double CalcPenetration(const Vector3& c_W, double r) const;
+
+  Scenario scenario_;
+  scene::SceneBuilder builder_;
+  std::shared_ptr<const scene::SceneSnapshot> snapshot_;
+  force::RenderSession session_;
+  std::vector<int> kinematic_;  // indices into scenario_.objects
+  bool ran_ = false;
+};
+
+}  // namespace hapticd::sim
