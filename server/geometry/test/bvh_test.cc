@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "server/geometry/mesh_generators.h"
+#include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
 namespace {
@@ -92,22 +93,6 @@ void ExpectValidBvh(const MeshBvh& bvh, const BvhBuildOptions& options, const st
   EXPECT_TRUE(bvh.bounds().Contains(mesh.bounds())) << what;
 }
 
-// Random triangles in a unit cube, some of them degenerate.
-TriangleMesh RandomSoup(int n, std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> unit(0, 1);
-  std::vector<Vector3> vertices;
-  std::vector<Indices> triangles;
-  for (int i = 0; i < n; ++i) {
-    const Vector3 c(unit(rng), unit(rng), unit(rng));
-    for (int k = 0; k < 3; ++k) {
-      vertices.push_back(c + 0.05 * Vector3(unit(rng), unit(rng), unit(rng)));
-    }
-    const int b = 3 * i;
-    triangles.push_back(i % 17 == 5 ? Indices{b, b, b + 1} : Indices{b, b + 1, b + 2});
-  }
-  return TriangleMesh(vertices, triangles);
-}
-
 std::vector<std::pair<std::string, std::shared_ptr<const TriangleMesh>>> TestMeshes() {
   std::mt19937_64 rng(7);
   std::vector<std::pair<std::string, std::shared_ptr<const TriangleMesh>>> meshes;
@@ -117,7 +102,7 @@ std::vector<std::pair<std::string, std::shared_ptr<const TriangleMesh>>> TestMes
   add("icosphere", MakeIcosphere(12, 1.5));
   add("torus", MakeTorus(2, 0.5, 40, 20));
   add("box", MakeBoxMesh({1, 2, 3}, 6));
-  add("soup", RandomSoup(3000, rng));
+  add("soup", MakeRandomSoup(rng, 3000, 0.05, 17, 5));
   add("one triangle", TriangleMesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {{0, 1, 2}}));
   // many triangles with one centroid (a fan of rotated copies): no SAH split exists
   {

@@ -13,6 +13,7 @@
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/exact_predicates.h"
 #include "server/geometry/mesh_generators.h"
+#include "server/geometry/test/random_geometry.h"
 #include "server/geometry/segment_triangle.h"
 
 namespace hapticd::geometry {
@@ -24,22 +25,6 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 std::shared_ptr<const TriangleMesh> Share(TriangleMesh mesh) {
   return std::make_shared<const TriangleMesh>(std::move(mesh));
-}
-
-// Random triangles in a unit cube (an open mesh), every 17th degenerate.
-TriangleMesh RandomSoup(int n, std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> unit(0, 1);
-  std::vector<Vector3> vertices;
-  std::vector<Indices> triangles;
-  for (int i = 0; i < n; ++i) {
-    const Vector3 c(unit(rng), unit(rng), unit(rng));
-    for (int k = 0; k < 3; ++k) {
-      vertices.push_back(c + 0.1 * Vector3(unit(rng), unit(rng), unit(rng)));
-    }
-    const int b = 3 * i;
-    triangles.push_back(i % 17 == 3 ? Indices{b, b + 1, b + 1} : Indices{b, b + 1, b + 2});
-  }
-  return TriangleMesh(vertices, triangles);
 }
 
 // The same mesh with every coordinate rounded to a multiple of 2^-20 of its size, so
@@ -150,7 +135,7 @@ void ExpectSameFirstHit(const MeshBvh& bvh, const Vector3& p, const Vector3& q,
 TEST(MeshQueries, FirstHitMatchesBruteForce) {
   std::mt19937_64 rng(11);
   std::vector<NamedMesh> meshes = ClosedMeshes();
-  meshes.push_back({"soup", Share(RandomSoup(800, rng))});
+  meshes.push_back({"soup", Share(MakeRandomSoup(rng, 800, 0.1, 17, 3))});
   std::normal_distribution<double> normal;
   for (const NamedMesh& m : meshes) {
     const MeshBvh bvh(m.mesh);
@@ -267,7 +252,7 @@ TEST(MeshQueries, HandBuiltBoxHits) {
 TEST(MeshQueries, ClosestPointMatchesBruteForce) {
   std::mt19937_64 rng(21);
   std::vector<NamedMesh> meshes = ClosedMeshes();
-  meshes.push_back({"soup", Share(RandomSoup(800, rng))});
+  meshes.push_back({"soup", Share(MakeRandomSoup(rng, 800, 0.1, 17, 3))});
   std::uniform_real_distribution<double> unit(0, 1);
   for (const NamedMesh& m : meshes) {
     const MeshBvh bvh(m.mesh);
@@ -314,7 +299,7 @@ TEST(MeshQueries, ClosestPointOnTheSurfaceIsExact) {
 TEST(MeshQueries, SphereContactsMatchBruteForce) {
   std::mt19937_64 rng(31);
   std::vector<NamedMesh> meshes = ClosedMeshes();
-  meshes.push_back({"soup", Share(RandomSoup(800, rng))});
+  meshes.push_back({"soup", Share(MakeRandomSoup(rng, 800, 0.1, 17, 3))});
   std::uniform_real_distribution<double> unit(0, 1);
   std::vector<SphereMeshContact> buffer(4096);
   for (const NamedMesh& m : meshes) {

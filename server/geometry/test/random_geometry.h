@@ -7,6 +7,7 @@
 #include <random>
 #include <vector>
 
+#include "server/geometry/triangle_mesh.h"
 #include "server/geometry/types.h"
 
 namespace hapticd::geometry {
@@ -29,6 +30,26 @@ inline std::vector<Vector3> RandomBall(std::mt19937_64& rng, int n, double radiu
     points.push_back(center + radius * std::cbrt(u(rng)) * direction);
   }
   return points;
+}
+
+// n random triangles in the unit cube (an open mesh), each with corners within `size`
+// of a random point; triangle i has zero area (a repeated corner) when
+// i % degenerate_every == degenerate_at, so meshes keep some degenerate triangles.
+inline TriangleMesh MakeRandomSoup(std::mt19937_64& rng, int n, double size, int degenerate_every,
+                                   int degenerate_at) {
+  std::uniform_real_distribution<double> unit(0, 1);
+  std::vector<Vector3> vertices;
+  std::vector<TriangleMesh::TriangleIndices> triangles;
+  for (int i = 0; i < n; ++i) {
+    const Vector3 c(unit(rng), unit(rng), unit(rng));
+    for (int k = 0; k < 3; ++k) {
+      vertices.push_back(c + size * Vector3(unit(rng), unit(rng), unit(rng)));
+    }
+    const int b = 3 * i;
+    triangles.push_back(i % degenerate_every == degenerate_at ? TriangleMesh::TriangleIndices{b, b + 1, b + 1}
+                                                             : TriangleMesh::TriangleIndices{b, b + 1, b + 2});
+  }
+  return TriangleMesh(vertices, triangles);
 }
 
 }  // namespace hapticd::geometry

@@ -15,6 +15,7 @@
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/exact_predicates.h"
 #include "server/geometry/mesh_generators.h"
+#include "server/geometry/test/random_geometry.h"
 #include "server/geometry/mesh_queries.h"
 #include "server/geometry/segment_triangle.h"
 
@@ -476,22 +477,6 @@ SphereSweepHit BruteSweep(const TriangleMesh& mesh, const Vector3& a, const Vect
   return best;
 }
 
-// Random triangles in a unit cube (an open mesh), every 13th degenerate.
-TriangleMesh RandomSoup(int n, std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> unit(0, 1);
-  std::vector<Vector3> vertices;
-  std::vector<Indices> triangles;
-  for (int i = 0; i < n; ++i) {
-    const Vector3 c(unit(rng), unit(rng), unit(rng));
-    for (int k = 0; k < 3; ++k) {
-      vertices.push_back(c + 0.15 * Vector3(unit(rng), unit(rng), unit(rng)));
-    }
-    const int b = 3 * i;
-    triangles.push_back(i % 13 == 5 ? Indices{b, b + 1, b + 1} : Indices{b, b + 1, b + 2});
-  }
-  return TriangleMesh(vertices, triangles);
-}
-
 // A random point of the mesh's surface, moved off it along the normal by `offset`.
 Vector3 NearSurface(const TriangleMesh& mesh, double offset, std::mt19937_64& rng) {
   const std::vector<int>& ids = mesh.nondegenerate_triangles();
@@ -509,7 +494,7 @@ TEST(SphereSweepMesh, MatchesBruteForceOverTheTriangles) {
   std::uniform_real_distribution<double> unit(0, 1), signed_unit(-1, 1);
   const std::vector<std::shared_ptr<const TriangleMesh>> meshes = {
       Share(MakeIcosphere(7, 1.0)), Share(MakeTorus(1.0, 0.35, 28, 14)),
-      Share(MakeBoxMesh({0.5, 1, 0.75}, 5)), Share(RandomSoup(400, rng))};
+      Share(MakeBoxMesh({0.5, 1, 0.75}, 5)), Share(MakeRandomSoup(rng, 400, 0.15, 13, 5))};
   int hits = 0, at_start = 0;
   for (const auto& mesh : meshes) {
     const MeshBvh bvh(mesh);
