@@ -56,9 +56,9 @@ scene::MeshSpec PinnedMesh(const geometry::TriangleMesh& mesh) {
 
 std::vector<Target> MakeTargets(bool quick) {
   std::vector<Target> targets;
-  targets.push_back({"sphere", Spec("sphere", scene::SphereSpec{kRadius}), 0});
-  targets.push_back({"box", Spec("box", scene::BoxSpec{Vector3::Constant(kRadius)}), 0});
-  targets.push_back({"capsule", Spec("capsule", scene::CapsuleSpec{kRadius, 0.05}), 0});
+  targets.push_back({"sphere", Spec("sphere", scene::SphereShape{kRadius}), 0});
+  targets.push_back({"box", Spec("box", scene::BoxShape{Vector3::Constant(kRadius)}), 0});
+  targets.push_back({"capsule", Spec("capsule", scene::CapsuleShape{kRadius, 0.05}), 0});
   // the hull of 200 points on the sphere
   std::mt19937_64 random(7);
   std::normal_distribution<double> normal;

@@ -130,20 +130,20 @@ std::pair<Shape, RepresentationChoice> MakeShape(const ShapeSpec& spec, const st
   return std::visit(
       [&](const auto& s) -> std::pair<Shape, RepresentationChoice> {
         using S = std::decay_t<decltype(s)>;
-        if constexpr (std::is_same_v<S, SphereSpec>) {
+        if constexpr (std::is_same_v<S, SphereShape>) {
           RequirePositive(s.radius, field + ".radius");
-          return {SphereShape{s.radius}, {}};
-        } else if constexpr (std::is_same_v<S, BoxSpec>) {
+          return {s, {}};
+        } else if constexpr (std::is_same_v<S, BoxShape>) {
           for (int k = 0; k < 3; ++k) {
             RequirePositive(s.half_extents[k], field + ".half_extents[" + std::to_string(k) + "]");
           }
-          return {BoxShape{s.half_extents}, {}};
-        } else if constexpr (std::is_same_v<S, CapsuleSpec>) {
+          return {s, {}};
+        } else if constexpr (std::is_same_v<S, CapsuleShape>) {
           RequirePositive(s.radius, field + ".radius");
           RequireNonNegative(s.half_length, field + ".half_length");
-          return {CapsuleShape{s.radius, s.half_length}, {}};
-        } else if constexpr (std::is_same_v<S, PlaneSpec>) {
-          return {PlaneShape{}, {}};
+          return {s, {}};
+        } else if constexpr (std::is_same_v<S, PlaneShape>) {
+          return {s, {}};
         } else if constexpr (std::is_same_v<S, ConvexSpec>) {
           return {MakeConvex(s, field), {}};
         } else {

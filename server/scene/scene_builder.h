@@ -23,18 +23,8 @@ class SceneError : public std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };
 
-// Shapes as a client describes them (before validation and representation choice).
-struct SphereSpec {
-  double radius = 0;
-};
-struct BoxSpec {
-  Vector3 half_extents = Vector3::Zero();
-};
-struct CapsuleSpec {
-  double radius = 0;
-  double half_length = 0;
-};
-struct PlaneSpec {};
+// Shapes as a client describes them (before validation and representation choice): the
+// primitives as they are stored (shape.h, validated here), point sets and meshes raw.
 struct ConvexSpec {
   std::vector<Vector3> points;  // in B; their hull must be 3-dimensional
 };
@@ -43,7 +33,7 @@ struct MeshSpec {
   std::vector<std::array<int, 3>> triangles;
   Representation pin = Representation::kAuto;
 };
-using ShapeSpec = std::variant<SphereSpec, BoxSpec, CapsuleSpec, PlaneSpec, ConvexSpec, MeshSpec>;
+using ShapeSpec = std::variant<SphereShape, BoxShape, CapsuleShape, PlaneShape, ConvexSpec, MeshSpec>;
 
 struct ObjectSpec {
   std::string name;  // unique in the scene, non-empty

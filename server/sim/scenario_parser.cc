@@ -98,20 +98,20 @@ scene::ShapeSpec ReadShape(const JsonAt& at, const std::filesystem::path& base_d
   switch (type) {
     case scene::ShapeType::kSphere: {
       const JsonObject shape(at, {"type", "radius"});
-      return scene::SphereSpec{ReadNumber(shape.Required("radius"))};
+      return scene::SphereShape{ReadNumber(shape.Required("radius"))};
     }
     case scene::ShapeType::kBox: {
       const JsonObject shape(at, {"type", "half_extents"});
-      return scene::BoxSpec{ReadVector3(shape.Required("half_extents"))};
+      return scene::BoxShape{ReadVector3(shape.Required("half_extents"))};
     }
     case scene::ShapeType::kCapsule: {
       const JsonObject shape(at, {"type", "radius", "half_length"});
-      return scene::CapsuleSpec{ReadNumber(shape.Required("radius")),
+      return scene::CapsuleShape{ReadNumber(shape.Required("radius")),
                                 ReadNumber(shape.Required("half_length"))};
     }
     case scene::ShapeType::kPlane: {
       const JsonObject shape(at, {"type"});
-      return scene::PlaneSpec{};
+      return scene::PlaneShape{};
     }
     case scene::ShapeType::kConvex: {
       const JsonObject shape(at, {"type", "points"});
@@ -138,7 +138,7 @@ scene::ShapeSpec ReadShape(const JsonAt& at, const std::filesystem::path& base_d
       return mesh;
     }
   }
-  return scene::SphereSpec{};
+  return scene::SphereShape{};
 }
 
 scene::Material ReadMaterial(const JsonAt& at) {

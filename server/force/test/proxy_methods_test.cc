@@ -58,7 +58,7 @@ StrokeResult Stroke(const scene::SceneSnapshot& scene, ForceMethod method, doubl
 
 std::vector<scene::ObjectSpec> Plates() {
   const scene::Material material = MakeMaterial(2000);
-  return {MakeObject("box_plate", scene::BoxSpec{Vector3(0.1, 0.1, kHalfThickness)}, Vector3::Zero(), material),
+  return {MakeObject("box_plate", scene::BoxShape{Vector3(0.1, 0.1, kHalfThickness)}, Vector3::Zero(), material),
           MakeObject("mesh_plate", MeshOf(geometry::MakeBoxMesh(Vector3(0.1, 0.1, kHalfThickness), 3)),
                      Vector3::Zero(), material)};
 }
@@ -110,7 +110,7 @@ TEST(Friction, SticksInsideTheConeAndSlidesWithTheDynamicCoefficient) {
   for (const auto& [method, radius] :
        {std::pair{ForceMethod::kGodObject, 0.0}, std::pair{ForceMethod::kFingerProxy, 0.005}}) {
     SCOPED_TRACE(ForceMethodName(method));
-    auto scene = BuildScene({MakeObject("floor", scene::PlaneSpec{}, Vector3::Zero(),
+    auto scene = BuildScene({MakeObject("floor", scene::PlaneShape{}, Vector3::Zero(),
                                         MakeMaterial(kK, 0, kStatic, kDynamic))});
     RenderSession session(Settings(method, radius));
     session.Reset(Vector3(0, 0, radius + 0.003));
@@ -210,7 +210,7 @@ TEST(Sliding, FingerProxyGlidesOverAMeshSphere) {
 // A kinematic box moving into a resting proxy pushes it (and the device feels it).
 TEST(KinematicObjects, AMovingBoxPushesAProxyItRunsInto) {
   scene::SceneBuilder builder;
-  scene::ObjectSpec box = MakeObject("pusher", scene::BoxSpec{Vector3(0.02, 0.02, 0.02)},
+  scene::ObjectSpec box = MakeObject("pusher", scene::BoxShape{Vector3(0.02, 0.02, 0.02)},
                                      Vector3(-0.03, 0, 0), MakeMaterial(1000));
   box.motion = scene::Motion::kKinematic;
   box.v_WB = Vector3(0.05, 0, 0);
@@ -238,7 +238,7 @@ TEST(KinematicObjects, AMovingBoxPushesAProxyItRunsInto) {
 // A proxy resting on a kinematic box with friction is carried along by it.
 TEST(KinematicObjects, AProxyRestingWithFrictionIsCarriedAlong) {
   scene::SceneBuilder builder;
-  scene::ObjectSpec table = MakeObject("table", scene::BoxSpec{Vector3(0.1, 0.1, 0.01)},
+  scene::ObjectSpec table = MakeObject("table", scene::BoxShape{Vector3(0.1, 0.1, 0.01)},
                                        Vector3(0, 0, -0.01), MakeMaterial(1000, 0, 1.0, 0.8));
   table.motion = scene::Motion::kKinematic;
   table.v_WB = Vector3(0.01, 0, 0);

@@ -18,7 +18,7 @@ using testing::MakeObject;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 std::shared_ptr<const scene::SceneSnapshot> Floor() {
-  return BuildScene({MakeObject("floor", scene::PlaneSpec{}, Vector3::Zero(), MakeMaterial(2000))});
+  return BuildScene({MakeObject("floor", scene::PlaneShape{}, Vector3::Zero(), MakeMaterial(2000))});
 }
 
 SessionSettings Admittance(double radius) {
@@ -126,7 +126,7 @@ TEST(BadInput, NonFiniteAndAbsurdSamplesAreCountedAndIgnored) {
 }
 
 TEST(BadInput, AbsurdForcesAreSaturatedToTheDeviceLimit) {
-  auto scene = BuildScene({MakeObject("floor", scene::PlaneSpec{}, Vector3::Zero(), MakeMaterial(1e9))});
+  auto scene = BuildScene({MakeObject("floor", scene::PlaneShape{}, Vector3::Zero(), MakeMaterial(1e9))});
   RenderSession session(Impedance(ForceMethod::kGodObject));
   session.Reset(Vector3(0, 0, 0.01));
   DeviceInput input;

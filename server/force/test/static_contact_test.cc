@@ -35,22 +35,22 @@ std::vector<PressCase> MakeCases() {
   const Vector3 up = Vector3::UnitZ();
   const Vector3 oblique = Vector3(1, -2, 2).normalized();
   std::vector<PressCase> cases;
-  cases.push_back({"plane", MakeObject("plane", scene::PlaneSpec{}, Vector3::Zero(), material),
+  cases.push_back({"plane", MakeObject("plane", scene::PlaneShape{}, Vector3::Zero(), material),
                    Vector3(0.3, -0.2, 0), up, 0.01});
   cases.push_back({"box_face",
-                   MakeObject("box", scene::BoxSpec{Vector3(0.1, 0.1, 0.05)}, Vector3(0, 0, -0.05), material),
+                   MakeObject("box", scene::BoxShape{Vector3(0.1, 0.1, 0.05)}, Vector3(0, 0, -0.05), material),
                    Vector3(0.02, 0.03, 0), up, 0.01});
   cases.push_back({"box_side",
-                   MakeObject("box", scene::BoxSpec{Vector3(0.1, 0.1, 0.05)}, Vector3::Zero(), material),
+                   MakeObject("box", scene::BoxShape{Vector3(0.1, 0.1, 0.05)}, Vector3::Zero(), material),
                    Vector3(0.1, 0.01, 0.02), Vector3::UnitX(), 0.01});
   cases.push_back({"sphere_top",
-                   MakeObject("ball", scene::SphereSpec{0.05}, Vector3(0, 0, -0.05), material),
+                   MakeObject("ball", scene::SphereShape{0.05}, Vector3(0, 0, -0.05), material),
                    Vector3::Zero(), up, 0.01});
   cases.push_back({"sphere_oblique",
-                   MakeObject("ball", scene::SphereSpec{0.05}, Vector3(0.1, 0.2, 0.3), material),
+                   MakeObject("ball", scene::SphereShape{0.05}, Vector3(0.1, 0.2, 0.3), material),
                    Vector3(0.1, 0.2, 0.3) + 0.05 * oblique, oblique, 0.01});
   cases.push_back({"capsule_side",
-                   MakeObject("capsule", scene::CapsuleSpec{0.03, 0.1}, Vector3::Zero(), material),
+                   MakeObject("capsule", scene::CapsuleShape{0.03, 0.1}, Vector3::Zero(), material),
                    Vector3(0, 0.03, 0.05), Vector3::UnitY(), 0.01});
   scene::ConvexSpec octahedron;
   for (int k = 0; k < 3; ++k) {
@@ -136,7 +136,7 @@ TEST(StaticContact, ProxyRestsOnTheSurfaceWhileTheDeviceIsInside) {
 }
 
 TEST(StaticContact, NoForceOutsideAndProxyFollowsTheDevice) {
-  auto scene = BuildScene({MakeObject("plane", scene::PlaneSpec{}, Vector3::Zero(), MakeMaterial(kStiffness))});
+  auto scene = BuildScene({MakeObject("plane", scene::PlaneShape{}, Vector3::Zero(), MakeMaterial(kStiffness))});
   for (const MethodCase& m : {MethodCase{ForceMethod::kGodObject, AvatarType::kPoint, 0},
                               MethodCase{ForceMethod::kFingerProxy, AvatarType::kSphere, 0.01},
                               MethodCase{ForceMethod::kPenalty, AvatarType::kPoint, 0}}) {
@@ -154,7 +154,7 @@ TEST(StaticContact, NoForceOutsideAndProxyFollowsTheDevice) {
 // Touching exactly (the device on the surface) gives zero force but no crossing.
 TEST(StaticContact, DampingOpposesTheNormalVelocityOnlyInside) {
   auto scene = BuildScene(
-      {MakeObject("plane", scene::PlaneSpec{}, Vector3::Zero(), MakeMaterial(kStiffness, 3.0))});
+      {MakeObject("plane", scene::PlaneShape{}, Vector3::Zero(), MakeMaterial(kStiffness, 3.0))});
   RenderSession session(MakeSettings({ForceMethod::kPenalty, AvatarType::kPoint, 0}));
   session.Reset(Vector3(0, 0, 0.01));
   DeviceInput input;

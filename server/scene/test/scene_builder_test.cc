@@ -22,14 +22,14 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 ObjectSpec Sphere(std::string name, double radius = 0.1) {
   ObjectSpec spec;
   spec.name = std::move(name);
-  spec.shape = SphereSpec{radius};
+  spec.shape = SphereShape{radius};
   return spec;
 }
 
 ObjectSpec BoxObject(std::string name, const Vector3& half_extents) {
   ObjectSpec spec;
   spec.name = std::move(name);
-  spec.shape = BoxSpec{half_extents};
+  spec.shape = BoxShape{half_extents};
   return spec;
 }
 
@@ -112,10 +112,10 @@ TEST_F(SceneBuilderErrors, PrimitiveSizes) {
   EXPECT_EQ(AddError(Sphere("ball", kInf)),
             "objects[ball].shape.radius is inf; it must be a finite number > 0");
   ObjectSpec capsule = Sphere("pill");
-  capsule.shape = CapsuleSpec{0.1, -0.5};
+  capsule.shape = CapsuleShape{0.1, -0.5};
   EXPECT_EQ(AddError(capsule),
             "objects[pill].shape.half_length is -0.5; it must be a finite number >= 0");
-  capsule.shape = CapsuleSpec{-0.1, 0.5};
+  capsule.shape = CapsuleShape{-0.1, 0.5};
   EXPECT_EQ(AddError(capsule), "objects[pill].shape.radius is -0.1; it must be a finite number > 0");
 }
 
@@ -261,7 +261,7 @@ TEST(SceneBuilder, AddUpdateRemoveAndBuild) {
   builder.Add(Sphere("a", 0.5));
   builder.Add(BoxObject("b", {1, 2, 3}));
   ObjectSpec plane = Sphere("floor");
-  plane.shape = PlaneSpec{};
+  plane.shape = PlaneShape{};
   builder.Add(plane);
   EXPECT_EQ(builder.num_objects(), 3);
   const SceneObject& updated = builder.Update(Sphere("a", 0.25));

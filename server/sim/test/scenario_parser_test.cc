@@ -51,7 +51,7 @@ TEST(ParseScenario, ReadsTheFieldsAndTheDefaults) {
   EXPECT_EQ(s.ticks, 2000);
   ASSERT_EQ(s.objects.size(), 1u);
   EXPECT_EQ(s.objects[0].name, "plate");
-  EXPECT_EQ(std::get<scene::BoxSpec>(s.objects[0].shape).half_extents, Vector3(0.1, 0.1, 0.0005));
+  EXPECT_EQ(std::get<scene::BoxShape>(s.objects[0].shape).half_extents, Vector3(0.1, 0.1, 0.0005));
   EXPECT_EQ(s.objects[0].X_WB.rotation, geometry::Matrix3::Identity());
   EXPECT_EQ(s.objects[0].motion, scene::Motion::kStatic);
   EXPECT_EQ(s.objects[0].material.stiffness, 2000);
