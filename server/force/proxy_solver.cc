@@ -11,8 +11,8 @@
 namespace hapticd::force {
 namespace {
 
-// Sweeps and planes per tick. Three planes pin a corner; the extra passes re-find the
-// surface after sliding along a curved one.
+// Sweeps per tick: each one that stops adds a plane, so this also bounds the planes
+// met (kMaxProxyPlanes); three pin a corner, the rest are met on the way there.
 constexpr int kMaxPasses = 8;
 // The proxy stops this far short of a surface (m), so rounding never leaves it inside.
 constexpr double kSkin = 1e-9;
