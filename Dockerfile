@@ -4,6 +4,9 @@ FROM debian:12
 WORKDIR /opt/hapticd
 COPY . .
 RUN bash deploy/install.sh && bash deploy/build.sh normal
-# Until the server exists, the image answers geometry conformance cases on stdin:
-#   docker run -i IMAGE < cases.jsonl
-ENTRYPOINT ["build/bin/hapticd-query"]
+# The server, reachable from outside the container only with TLS and a token:
+#   docker run -p 7460:7460 -p 7461:7461/udp -v $PWD/secrets:/secrets IMAGE \
+#     --host 0.0.0.0 --tls-cert /secrets/cert.pem --tls-key /secrets/key.pem \
+#     --access-token-file /secrets/token
+EXPOSE 7460 7461/udp
+ENTRYPOINT ["build/bin/hapticd"]

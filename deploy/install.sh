@@ -8,7 +8,7 @@ repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 packages=(
   build-essential cmake ninja-build g++ pkg-config git
   libasio-dev libprotobuf-dev protobuf-compiler libembree-dev libeigen3-dev
-  libgtest-dev libgmock-dev libbenchmark-dev rapidjson-dev libfmt-dev libssl-dev
+  libgtest-dev libgmock-dev libbenchmark-dev rapidjson-dev libfmt-dev libssl-dev libsodium-dev
   python3 python3-venv python3-dev
 )
 
@@ -33,4 +33,12 @@ if [[ ! -x "$venv/bin/python" ]] || [[ "$(cat "$stamp" 2>/dev/null)" != "$want" 
   /usr/bin/python3 -m venv "$venv"
   "$venv/bin/pip" install --quiet --disable-pip-version-check -r "$requirements"
   echo "$want" > "$stamp"
+fi
+
+# The protocol's Python code, from the same .proto and the same protoc as the C++ code,
+# then the hapticd package itself (editable: clients/python/src is what runs).
+protoc -I "$repo/proto" --python_out="$repo/clients/python/src" --pyi_out="$repo/clients/python/src" \
+  "$repo/proto/hapticd/v1/hapticd.proto"
+if ! "$venv/bin/python" -c 'import hapticd' 2>/dev/null; then
+  "$venv/bin/pip" install --quiet --disable-pip-version-check --no-deps -e "$repo/clients/python"
 fi

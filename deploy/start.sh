@@ -1,12 +1,11 @@
 #!/usr/bin/env bash
-# The main job, from a bare checkout: setup, build, then (until the server exists) the
-# conformance runner on the public geometry cases.
+# The main job, from a bare checkout: setup, build, then the server on its embedded
+# default scene, on loopback (control 127.0.0.1:7460, realtime 127.0.0.1:7461). Extra
+# arguments go to hapticd (see build/bin/hapticd --help); Ctrl-C stops it.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"
-shared="${HAPTICD_SHARED:-$(cd "$repo/.." && pwd)/shared}"
 
 bash deploy/install.sh
 bash deploy/build.sh normal
-python3 "$shared/conformance/check.py" --runner build/bin/hapticd-query \
-  "$shared"/conformance/public/*.jsonl
+exec build/bin/hapticd "$@"

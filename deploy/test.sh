@@ -19,5 +19,8 @@ ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
 echo "== conformance"
 python3 "$HAPTICD_SHARED/conformance/check.py" --runner build/bin/hapticd-query \
   "$HAPTICD_SHARED"/conformance/public/*.jsonl
+echo "== Python package: lint, types, unit tests"
+(cd clients/python && ../../.venv/bin/ruff check src tests && ../../.venv/bin/mypy)
+.venv/bin/python -m pytest -q clients/python/tests
 echo "== end-to-end tests"
 .venv/bin/python -m pytest -q tests

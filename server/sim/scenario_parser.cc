@@ -323,10 +323,7 @@ Scenario ReadScenario(const JsonAt& root, const std::filesystem::path& base_dir)
   return scenario;
 }
 
-}  // namespace
-
-Scenario ParseScenario(std::string_view json, const std::filesystem::path& base_dir,
-                       std::span<const std::string> overrides) {
+rapidjson::Document ParseJson(std::string_view json) {
   rapidjson::Document document;
   // iterative: deep nesting cannot overflow the stack
   constexpr unsigned kFlags = rapidjson::kParseFullPrecisionFlag | rapidjson::kParseIterativeFlag;
@@ -335,20 +332,47 @@ Scenario ParseScenario(std::string_view json, const std::filesystem::path& base_
     throw ScenarioError(fmt::format("invalid JSON at {}: {}", LineAndColumn(json, document.GetErrorOffset()),
                                     rapidjson::GetParseError_En(document.GetParseError())));
   }
+  return document;
+}
+
+std::string ReadFile(const std::filesystem::path& path, std::string_view what) {
+  std::error_code error;
+  if (!std::filesystem::is_regular_file(path, error)) {
+    const bool exists = std::filesystem::exists(path, error);
+    throw ScenarioError(exists ? fmt::format("the {} is not a regular file", what)
+                               : fmt::format("the {} file does not exist", what));
+  }
+  std::ifstream file(path, std::ios::binary);
+  std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  if (!file.is_open() || file.bad()) throw ScenarioError(fmt::format("the {} file cannot be read", what));
+  return text;
+}
+
+}  // namespace
+
+Scenario ParseScenario(std::string_view json, const std::filesystem::path& base_dir,
+                       std::span<const std::string> overrides) {
+  rapidjson::Document document = ParseJson(json);
   for (const std::string& text : overrides) ApplyOverride(document, ParseOverride(text));
   return ReadScenario(JsonAt{document, ""}, base_dir);
 }
 
+SceneFile ParseSceneFile(std::string_view json, const std::filesystem::path& base_dir) {
+  const rapidjson::Document document = ParseJson(json);
+  const JsonAt root{document, ""};
+  // A scene file, or a whole scenario whose scene is wanted.
+  const JsonObject top(root, {"scene", "rate_hz", "duration_s", "avatar", "device", "hand", "channel", "control"});
+  Scenario scenario;
+  ReadScene(top.Required("scene"), base_dir, scenario);
+  return {scenario.scene_settings, std::move(scenario.objects)};
+}
+
+SceneFile LoadSceneFile(const std::filesystem::path& path) {
+  return ParseSceneFile(ReadFile(path, "scene"), path.parent_path());
+}
+
 Scenario LoadScenario(const std::filesystem::path& path, std::span<const std::string> overrides) {
-  std::error_code error;
-  if (!std::filesystem::is_regular_file(path, error)) {
-    throw ScenarioError(std::filesystem::exists(path, error) ? "the scenario is not a regular file"
-                                                              : "the scenario file does not exist");
-  }
-  std::ifstream file(path, std::ios::binary);
-  const std::string json((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
-  if (!file.is_open() || file.bad()) throw ScenarioError("the scenario file cannot be read");
-  return ParseScenario(json, path.parent_path(), overrides);
+  return ParseScenario(ReadFile(path, "scenario"), path.parent_path(), overrides);
 }
 
 }  // namespace hapticd::sim

@@ -41,4 +41,14 @@ Scenario ParseScenario(std::string_view json, const std::filesystem::path& base_
 // the caller names the file).
 Scenario LoadScenario(const std::filesystem::path& path, std::span<const std::string> overrides = {});
 
+// A scene on its own, as a scene file holds it: {"scene": {...}} with the scenario
+// format's scene section (a whole scenario is accepted too; its scene is read).
+struct SceneFile {
+  scene::SceneSettings settings;
+  std::vector<scene::ObjectSpec> objects;
+};
+SceneFile ParseSceneFile(std::string_view json, const std::filesystem::path& base_dir);
+// ParseSceneFile of the file at path, meshes relative to its folder. Throws ScenarioError.
+SceneFile LoadSceneFile(const std::filesystem::path& path);
+
 }  // namespace hapticd::sim

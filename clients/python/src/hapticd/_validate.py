@@ -1,0 +1,211 @@
+"""Argument checks at the API boundary: each converts a caller's value to the type the
+package works with (float, numpy arrays) or raises LocalError naming the argument and
+its bad value, e.g. "radius is -0.5; it must be a finite number > 0".
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from hapticd.errors import LocalError
+
+FloatArray = NDArray[np.float64]
+IndexArray = NDArray[np.uint32]
+
+# How far from unit a quaternion or orthonormal a rotation matrix may be, and be accepted.
+ROTATION_TOLERANCE = 1e-6
+
+
+def _shown(value: Any) -> str:
+    """value as an error message shows it: arrays as nested lists, floats exactly."""
+    if isinstance(value, np.ndarray):
+        return str(value.tolist())
+    return repr(value)
+
+
+def number(value: Any, name: str) -> float:
+    """value as a finite float."""
+    try:
+        result = float(value)
+    except (TypeError, ValueError) as exc:
+        raise LocalError(f"{name} is {_shown(value)}; it must be a number") from exc
+    if not math.isfinite(result):
+        raise LocalError(f"{name} is {result!r}; it must be a finite number")
+    return result
+
+
+def positive(value: Any, name: str) -> float:
+    """value as a finite float > 0."""
+    result = number(value, name)
+    if result <= 0:
+        raise LocalError(f"{name} is {result!r}; it must be a finite number > 0")
+    return result
+
+
+def non_negative(value: Any, name: str) -> float:
+    """value as a finite float >= 0."""
+    result = number(value, name)
+    if result < 0:
+        raise LocalError(f"{name} is {result!r}; it must be a finite number >= 0")
+    return result
+
+
+def in_range(value: Any, name: str, low: float, high: float) -> float:
+    """value as a finite float in [low, high]."""
+    result = number(value, name)
+    if not low <= result <= high:
+        raise LocalError(f"{name} is {result!r}; it must be in [{low!r}, {high!r}]")
+    return result
+
+
+def as_floats(value: ArrayLike, name: str) -> FloatArray:
+    """value as a float64 array of any shape (values unchecked)."""
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise LocalError(f"{name} is {_shown(value)}; it must be numbers") from exc
+
+
+def as_indices(value: ArrayLike, name: str) -> NDArray[Any]:
+    """value as an array of its own dtype (checked by triangles())."""
+    try:
+        return np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise LocalError(f"{name} is {_shown(value)}; it must be integer indices") from exc
+
+
+def float_array(value: ArrayLike, name: str, shape: tuple[int, ...]) -> FloatArray:
+    """value as a finite float64 array of the given shape (-1: any length on that axis)."""
+    array = as_floats(value, name)
+    fits = array.ndim == len(shape) and all(
+        want in (-1, got) for want, got in zip(shape, array.shape, strict=True)
+    )
+    if not fits:
+        wanted = str(tuple("N" if n == -1 else n for n in shape)).replace("'", "")
+        raise LocalError(f"{name} has shape {array.shape}; it must be {wanted}")
+    if not np.all(np.isfinite(array)):
+        bad = np.argwhere(~np.isfinite(array))[0]
+        where = "".join(f"[{i}]" for i in bad[:-1]) if array.ndim > 1 else ""
+        row = array[tuple(bad[:-1])] if array.ndim > 1 else array
+        raise LocalError(f"{name}{where} is {_shown(row)}; it must be finite")
+    return array
+
+
+def vector3(value: ArrayLike, name: str) -> FloatArray:
+    """value as a finite float array of shape (3,)."""
+    return float_array(value, name, (3,))
+
+
+def nonzero_vector3(value: ArrayLike, name: str) -> FloatArray:
+    """value as a finite, non-zero float array of shape (3,)."""
+    vector = vector3(value, name)
+    if not np.any(vector):
+        raise LocalError(f"{name} is {_shown(vector)}; it must be non-zero")
+    return vector
+
+
+def points(value: ArrayLike, name: str, minimum: int = 1) -> FloatArray:
+    """value as a finite (N, 3) float array with N >= minimum."""
+    array = float_array(value, name, (-1, 3))
+    if len(array) < minimum:
+        raise LocalError(f"{name} has {len(array)} points; it needs at least {minimum}")
+    return array
+
+
+def triangles(value: ArrayLike, name: str, vertex_count: int) -> IndexArray:
+    """value as an (M, 3) array of vertex indices in [0, vertex_count), M >= 1."""
+    array = as_indices(value, name)
+    if array.ndim != 2 or array.shape[1] != 3:
+        raise LocalError(f"{name} has shape {array.shape}; it must be (M, 3)")
+    if len(array) == 0:
+        raise LocalError(f"{name} is empty; a mesh needs at least one triangle")
+    if not np.issubdtype(array.dtype, np.integer):
+        raise LocalError(f"{name} has dtype {array.dtype}; it must hold integer vertex indices")
+    bad = np.argwhere((array < 0) | (array >= vertex_count))
+    if len(bad):
+        i, j = bad[0]
+        raise LocalError(
+            f"{name}[{i}][{j}] is {int(array[i, j])}; it must be a vertex index in "
+            f"[0, {vertex_count})"
+        )
+    return array.astype(np.uint32)
+
+
+def quaternion(value: ArrayLike, name: str) -> FloatArray:
+    """An orientation as a unit quaternion (w, x, y, z): value is a quaternion (shape
+    (4,), unit within 1e-6) or a rotation matrix (shape (3, 3), columns the body's axes
+    in the world frame, orthonormal within 1e-6 and det +1)."""
+    array = as_floats(value, name)
+    if array.shape == (4,):
+        q = float_array(array, name, (4,))
+        norm = float(np.linalg.norm(q))
+        if abs(norm - 1) > ROTATION_TOLERANCE:
+            raise LocalError(f"{name} is {_shown(q)}; a quaternion must have norm 1, not {norm!r}")
+        return q / norm
+    if array.shape != (3, 3):
+        raise LocalError(
+            f"{name} has shape {array.shape}; it must be a quaternion (w, x, y, z) "
+            "or a 3x3 rotation matrix"
+        )
+    rotation = float_array(array, name, (3, 3))
+    error = float(np.max(np.abs(rotation.T @ rotation - np.eye(3))))
+    if error > ROTATION_TOLERANCE or np.linalg.det(rotation) < 0:
+        raise LocalError(
+            f"{name} is {_shown(rotation)}; it is not a rotation (|R^T R - I| = {error:.3g}, "
+            f"det R = {np.linalg.det(rotation):.3g})"
+        )
+    return rotation_to_quaternion(rotation)
+
+
+def rotation_to_quaternion(rotation: FloatArray) -> FloatArray:
+    """The unit quaternion (w, x, y, z) of a rotation matrix, w >= 0 (Shepperd's method:
+    divide by the largest of the four squared components)."""
+    r = rotation
+    trace = r[0, 0] + r[1, 1] + r[2, 2]
+    # pick the best-conditioned of the four formulas
+    if trace > max(r[0, 0], r[1, 1], r[2, 2]):
+        s = 2 * math.sqrt(1 + trace)
+        q = [s / 4, (r[2, 1] - r[1, 2]) / s, (r[0, 2] - r[2, 0]) / s, (r[1, 0] - r[0, 1]) / s]
+    elif r[0, 0] >= r[1, 1] and r[0, 0] >= r[2, 2]:
+        s = 2 * math.sqrt(1 + r[0, 0] - r[1, 1] - r[2, 2])
+        q = [(r[2, 1] - r[1, 2]) / s, s / 4, (r[0, 1] + r[1, 0]) / s, (r[0, 2] + r[2, 0]) / s]
+    elif r[1, 1] >= r[2, 2]:
+        s = 2 * math.sqrt(1 + r[1, 1] - r[0, 0] - r[2, 2])
+        q = [(r[0, 2] - r[2, 0]) / s, (r[0, 1] + r[1, 0]) / s, s / 4, (r[1, 2] + r[2, 1]) / s]
+    else:
+        s = 2 * math.sqrt(1 + r[2, 2] - r[0, 0] - r[1, 1])
+        q = [(r[1, 0] - r[0, 1]) / s, (r[0, 2] + r[2, 0]) / s, (r[1, 2] + r[2, 1]) / s, s / 4]
+    result = np.array(q, dtype=np.float64)
+    result /= np.linalg.norm(result)
+    return -result if result[0] < 0 else result
+
+
+def quaternion_to_rotation(q: FloatArray) -> FloatArray:
+    """The rotation matrix of a unit quaternion (w, x, y, z)."""
+    w, x, y, z = (float(c) for c in q)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ],
+        dtype=np.float64,
+    )
+
+
+def choice(value: str, name: str, allowed: tuple[str, ...]) -> str:
+    """value if it is one of allowed."""
+    if value not in allowed:
+        raise LocalError(f"{name} is {value!r}; it must be one of {', '.join(allowed)}")
+    return value
+
+
+def object_name(value: Any, name: str = "name") -> str:
+    """A non-empty object name."""
+    if not isinstance(value, str) or not value:
+        raise LocalError(f"{name} is {value!r}; it must be a non-empty string")
+    return value

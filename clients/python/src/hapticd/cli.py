@@ -1,0 +1,240 @@
+"""The command line, `python -m hapticd`:
+
+    scene load FILE      add the objects of a JSON scene file, or one mesh file
+    scene show           print the scene as JSON
+    scene clear          remove every object
+    demo                 a simulated hand strokes the scene over UDP; one JSON line
+    bench latency        round-trip percentiles of a still device; one JSON line
+
+Every command takes --server HOST:PORT (default $HAPTICD_SERVER, else 127.0.0.1:7460,
+the server's default). Exit status: 0 done, 2 bad arguments or input files (the message
+names the problem), 1 the server refused, failed or could not be reached.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pathlib
+import ssl
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from hapticd._connection import parse_address
+from hapticd.client import Client, connect
+from hapticd.demo import Trace, plot_trace, run_demo, run_latency_bench
+from hapticd.errors import HapticdError, LocalError
+from hapticd.objects import Material, Mesh, ObjectSpec, Pose
+from hapticd.results import ObjectInfo, SceneInfo
+from hapticd.scene_files import MESH_SUFFIXES, read_mesh_file, read_scene_file
+
+DEFAULT_SERVER = "127.0.0.1:7460"
+
+
+def _positive(text: str) -> float:
+    """An argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (value > 0 and np.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
+    return value
+
+
+def _server_options(parser: argparse.ArgumentParser) -> None:
+    """The connection options every command takes."""
+    parser.add_argument(
+        "--server",
+        default=os.environ.get("HAPTICD_SERVER", DEFAULT_SERVER),
+        metavar="HOST:PORT",
+        help="the server's control channel (default $HAPTICD_SERVER or %(default)s)",
+    )
+    parser.add_argument(
+        "--timeout", type=_positive, default=5.0, metavar="S", help="per-request timeout (s)"
+    )
+    parser.add_argument("--tls-ca", metavar="FILE", help="use TLS, trusting this CA (PEM)")
+    parser.add_argument(
+        "--access-token-file", metavar="FILE", help="its first line is the server's token"
+    )
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of every command."""
+    parser = argparse.ArgumentParser(
+        prog="python -m hapticd",
+        description="hapticd's command line." + __doc__.split(":", 1)[1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    scene = commands.add_parser("scene", help="load, show or clear the scene")
+    scene_commands = scene.add_subparsers(dest="scene_command", required=True, metavar="ACTION")
+    load = scene_commands.add_parser("load", help="add the objects of a scene or mesh file")
+    load.add_argument("file", help='JSON scene file ({"scene": {"objects": [...]}}) or OBJ/STL/PLY')
+    load.add_argument("--replace", action="store_true", help="clear the scene first")
+    load.add_argument("--name", help="a mesh file's object name (default: the file's stem)")
+    load.add_argument(
+        "--position",
+        type=float,
+        nargs=3,
+        default=(0.0, 0.0, 0.0),
+        metavar=("X", "Y", "Z"),
+        help="a mesh file's position (m)",
+    )
+    load.add_argument(
+        "--scale", type=_positive, default=1.0, help="a mesh file's scale (0.001: mm)"
+    )
+    load.add_argument("--stiffness", type=_positive, default=2000.0, help="a mesh file's N/m")
+    load.add_argument("--representation", default="auto", help="a mesh file's representation")
+    _server_options(load)
+    show = scene_commands.add_parser("show", help="print the scene as JSON")
+    _server_options(show)
+    clear = scene_commands.add_parser("clear", help="remove every object")
+    _server_options(clear)
+
+    demo = commands.add_parser("demo", help="stroke the scene with a simulated device")
+    demo.add_argument("--seconds", type=_positive, default=4.0, help="how long (s)")
+    demo.add_argument("--rate-hz", type=_positive, default=1000.0, help="the device's rate")
+    demo.add_argument("--plot", metavar="FILE.png", help="draw force and position over time")
+    _server_options(demo)
+
+    bench = commands.add_parser("bench", help="measure the realtime channel")
+    bench_commands = bench.add_subparsers(dest="bench_command", required=True, metavar="WHAT")
+    latency = bench_commands.add_parser("latency", help="round trips of a still device")
+    latency.add_argument("--seconds", type=_positive, default=5.0, help="how long (s)")
+    latency.add_argument("--rate-hz", type=_positive, default=1000.0, help="the device's rate")
+    _server_options(latency)
+    return parser
+
+
+def _connect(args: argparse.Namespace) -> Client:
+    """A client for the command's --server and TLS options."""
+    parse_address(args.server, "--server")
+    tls = None
+    if args.tls_ca:
+        tls = ssl.create_default_context(cafile=args.tls_ca)
+    token = ""
+    if args.access_token_file:
+        try:
+            token = pathlib.Path(args.access_token_file).read_text().splitlines()[0].strip()
+        except (OSError, IndexError) as exc:
+            raise LocalError(f"--access-token-file {args.access_token_file!r}: {exc}") from exc
+    return connect(args.server, timeout_s=args.timeout, tls=tls, access_token=token)
+
+
+def _read_objects(args: argparse.Namespace) -> list[ObjectSpec]:
+    """scene load's objects: a scene file's, or one object of a mesh file."""
+    path = pathlib.Path(args.file)
+    if path.suffix.lower() in MESH_SUFFIXES:
+        vertices, triangles = read_mesh_file(path)
+        specs = [
+            ObjectSpec(
+                name=args.name or path.stem,
+                shape=Mesh(vertices * args.scale, triangles, args.representation),
+                pose=Pose.of(args.position),
+                material=Material(stiffness=args.stiffness),
+            )
+        ]
+    else:
+        scene_file = read_scene_file(path)
+        specs = scene_file.objects
+        if scene_file.tolerance is not None:
+            print(
+                "hapticd: note: the file's scene.tolerance is not set over the protocol; "
+                "the server keeps its own",
+                file=sys.stderr,
+            )
+    return specs
+
+
+def _load(client: Client, specs: list[ObjectSpec], replace: bool) -> dict[str, Any]:
+    """scene load: adds the objects; what was added and the new version."""
+    version = client.clear_scene() if replace else 0
+    for spec in specs:
+        version = client.add_object(spec)
+    return {"added": [spec.name for spec in specs], "scene_version": version}
+
+
+def _vector(values: np.ndarray[Any, Any]) -> list[float | str]:
+    """A vector for JSON: infinities as strings, since JSON has none."""
+    return [float(v) if np.isfinite(v) else ("inf" if v > 0 else "-inf") for v in values]
+
+
+def _object_json(info: ObjectInfo) -> dict[str, Any]:
+    material = info.material
+    return {
+        "name": info.name,
+        "shape": info.shape,
+        "representation": info.representation,
+        "representation_error": info.representation_error,
+        "position": _vector(info.pose.position),
+        "orientation": _vector(info.pose.orientation),
+        "bounds_min": _vector(info.bounds_min),
+        "bounds_max": _vector(info.bounds_max),
+        "material": {
+            "stiffness": material.stiffness,
+            "damping": material.damping,
+            "static_friction": material.static_friction,
+            "dynamic_friction": material.dynamic_friction,
+            "force_shading": material.force_shading,
+        },
+        "kinematic": info.kinematic,
+        "triangles": info.triangles,
+    }
+
+
+def scene_json(scene: SceneInfo) -> dict[str, Any]:
+    """The scene as a JSON-ready dict."""
+    return {
+        "version": scene.version,
+        "tolerance": scene.tolerance,
+        "objects": [_object_json(info) for info in scene.objects],
+    }
+
+
+def _run(args: argparse.Namespace) -> dict[str, Any]:
+    """Runs the parsed command; returns the JSON it prints. Input files are read, and a
+    plot's directory checked, before connecting."""
+    specs = _read_objects(args) if args.command == "scene" and args.scene_command == "load" else []
+    if args.command == "demo" and args.plot and not pathlib.Path(args.plot).parent.is_dir():
+        raise LocalError(f"--plot {args.plot!r}: its directory does not exist")
+    with _connect(args) as client:
+        if args.command == "scene":
+            if args.scene_command == "load":
+                return _load(client, specs, args.replace)
+            if args.scene_command == "clear":
+                return {"scene_version": client.clear_scene()}
+            return scene_json(client.scene())
+        if args.command == "demo":
+            trace = Trace() if args.plot else None
+            summary = run_demo(client, args.seconds, rate_hz=args.rate_hz, trace=trace)
+            if trace is not None:
+                plot_trace(trace, args.plot)
+                summary["plot"] = args.plot
+            return summary
+        return run_latency_bench(client, args.seconds, rate_hz=args.rate_hz)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Runs the command line; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        result = _run(args)
+    except LocalError as exc:
+        parser.exit(2, f"hapticd: error: {exc}\n")
+    except HapticdError as exc:
+        parser.exit(1, f"hapticd: {type(exc).__name__}: {exc}\n")
+    except KeyboardInterrupt:
+        return 130
+    print(json.dumps(result))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

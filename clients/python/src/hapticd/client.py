@@ -1,0 +1,546 @@
+"""The control-channel client: build and edit the scene, query it, open device sessions
+and watch them, with numpy arrays in and out.
+
+    with hapticd.connect("127.0.0.1:7000") as client:
+        client.add_sphere("ball", 0.05, position=(0, 0, 0.05), material={"stiffness": 2000})
+        hit = client.ray_cast(origin=(0, 0, 1), direction=(0, 0, -1))
+
+Arguments are validated before anything is sent (LocalError naming the bad value); the
+server's refusals raise RemoteError with its code and message. Every call takes an
+explicit timeout_s (default: the client's). A Client is not thread-safe.
+"""
+
+from __future__ import annotations
+
+import ssl
+from collections.abc import Callable, Iterable, Iterator
+from typing import Any, TypedDict, TypeVar, Unpack, cast
+
+import numpy as np
+from google.protobuf.message import Message
+from numpy.typing import ArrayLike
+
+from hapticd import _codec as codec
+from hapticd import _validate as check
+from hapticd._connection import Connection, parse_address, remote_error
+from hapticd.errors import LocalError, ProtocolError, RemoteError
+from hapticd.objects import (
+    Box,
+    Capsule,
+    Convex,
+    Material,
+    Mesh,
+    ObjectSpec,
+    Plane,
+    Pose,
+    Shape,
+    Sphere,
+    material_from,
+)
+from hapticd.results import (
+    ClosestPoint,
+    Contact,
+    RayHit,
+    SceneInfo,
+    SessionInfo,
+    Stats,
+    Telemetry,
+)
+from hapticd.scene_files import read_mesh_file
+from hapticd.v1 import hapticd_pb2 as pb
+
+PROTOCOL_VERSION = 1
+DEVICE_TYPES = {"impedance": pb.DEVICE_TYPE_IMPEDANCE, "admittance": pb.DEVICE_TYPE_ADMITTANCE}
+AVATARS = {"point": pb.AVATAR_TYPE_POINT, "sphere": pb.AVATAR_TYPE_SPHERE}
+FORCE_METHODS = {
+    "default": pb.FORCE_METHOD_DEFAULT,
+    "penalty": pb.FORCE_METHOD_PENALTY,
+    "god_object": pb.FORCE_METHOD_GOD_OBJECT,
+    "finger_proxy": pb.FORCE_METHOD_FINGER_PROXY,
+}
+MAX_RATE_HZ = 10_000.0
+MAX_TELEMETRY_RATE_HZ = 1_000.0
+
+ResultT = TypeVar("ResultT")
+BodyT = TypeVar("BodyT", bound=Message)
+
+
+class Placement(TypedDict, total=False):
+    """Where an added object goes and how it feels: position (m, (3,)), rotation (a
+    quaternion (w, x, y, z) or a 3x3 matrix; None: identity), material (a Material or a
+    dict of its fields; None: stiffness 1000 N/m), kinematic with its velocity (m/s) and
+    angular_velocity (rad/s), and the request's timeout_s."""
+
+    position: ArrayLike
+    rotation: ArrayLike | None
+    material: Material | dict[str, Any] | None
+    kinematic: bool
+    velocity: ArrayLike
+    angular_velocity: ArrayLike
+    timeout_s: float | None
+
+
+def connect(
+    address: str,
+    *,
+    timeout_s: float = 5.0,
+    tls: ssl.SSLContext | None = None,
+    access_token: str = "",
+    client_name: str = "hapticd-python",
+    server_hostname: str | None = None,
+) -> Client:
+    """Connects to a hapticd server's control channel at address ("host:port") and
+    introduces itself (Hello). Off loopback tls is required and access_token is what the
+    server was started with. timeout_s is the default for every later request too."""
+    timeout_s = check.positive(timeout_s, "timeout_s")
+    connection = Connection.open(
+        address, timeout_s=timeout_s, tls=tls, server_hostname=server_hostname
+    )
+    try:
+        hello = pb.Hello(
+            protocol_version=PROTOCOL_VERSION, access_token=access_token, client_name=client_name
+        )
+        reply = connection.request("hello", hello, timeout_s)
+        answer = _body(reply, "hello", pb.HelloReply)
+        if answer.protocol_version != PROTOCOL_VERSION:
+            raise ProtocolError(
+                f"server speaks protocol version {answer.protocol_version}; this client "
+                f"speaks {PROTOCOL_VERSION}"
+            )
+    except BaseException:
+        connection.close()
+        raise
+    return Client(connection, timeout_s, answer.server_name, answer.udp_endpoint)
+
+
+def _body(reply: pb.Reply, name: str, kind: type[BodyT]) -> BodyT:
+    """The reply's body, which must be `name`; ProtocolError otherwise."""
+    got = reply.WhichOneof("body")
+    if got != name:
+        raise ProtocolError(f"expected a {name} reply, got {got or 'an empty one'}")
+    return cast(BodyT, getattr(reply, name))
+
+
+def _decoded(convert: Callable[[BodyT], ResultT], body: BodyT) -> ResultT:
+    """convert(body); a value the package's own types refuse is the server's fault."""
+    try:
+        return convert(body)
+    except LocalError as exc:
+        raise ProtocolError(f"the server sent an invalid {body.DESCRIPTOR.name}: {exc}") from exc
+
+
+class Client:
+    """A connection to the control channel; made by connect(). Use as a context manager
+    or call close()."""
+
+    def __init__(
+        self, connection: Connection, timeout_s: float, server_name: str, udp_endpoint: str
+    ) -> None:
+        self._connection = connection
+        self.timeout_s = timeout_s
+        self.server_name = server_name
+        self.udp_endpoint = udp_endpoint
+
+    def __enter__(self) -> Client:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Closes the connection; the server closes its subscriptions, not its sessions."""
+        self._connection.close()
+
+    @property
+    def closed(self) -> bool:
+        """Whether the connection is closed."""
+        return self._connection.closed
+
+    def _call(self, body_name: str, body: Message, timeout_s: float | None) -> pb.Reply:
+        timeout = self.timeout_s if timeout_s is None else check.positive(timeout_s, "timeout_s")
+        return self._connection.request(body_name, body, timeout)
+
+    def _edit(self, body_name: str, body: Message, timeout_s: float | None) -> int:
+        return _body(self._call(body_name, body, timeout_s), "done", pb.Done).scene_version
+
+    # ---- scene edits: each returns the new scene version ----
+
+    def add_object(self, spec: ObjectSpec, *, timeout_s: float | None = None) -> int:
+        """Adds an object; RemoteError ALREADY_EXISTS when the name is taken."""
+        if not isinstance(spec, ObjectSpec):
+            raise LocalError(f"spec is {spec!r}; it must be an ObjectSpec")
+        message = pb.AddObject()
+        codec.fill_object(message.object, spec)
+        return self._edit("add_object", message, timeout_s)
+
+    def _add(self, name: str, shape: Shape, placement: Placement) -> int:
+        timeout_s = placement.pop("timeout_s", None)
+        return self.add_object(_spec(name, shape, placement), timeout_s=timeout_s)
+
+    def add_sphere(self, name: str, radius: float, **placement: Unpack[Placement]) -> int:
+        """Adds a sphere of radius (m) centred at position."""
+        return self._add(name, Sphere(radius), placement)
+
+    def add_box(self, name: str, half_extents: ArrayLike, **placement: Unpack[Placement]) -> int:
+        """Adds a box of half_extents (m, (3,), along its axes) centred at position."""
+        return self._add(name, Box(check.as_floats(half_extents, "half_extents")), placement)
+
+    def add_capsule(
+        self, name: str, radius: float, half_length: float, **placement: Unpack[Placement]
+    ) -> int:
+        """Adds a capsule: radius (m) around a segment of half_length (m) along its z axis."""
+        return self._add(name, Capsule(radius, half_length), placement)
+
+    def add_plane(
+        self, name: str, normal: ArrayLike | None = None, **placement: Unpack[Placement]
+    ) -> int:
+        """Adds the half-space behind a plane through position: its outward normal is the
+        body's z axis, or `normal` (non-zero, (3,)) when given instead of a rotation."""
+        if normal is not None:
+            if placement.get("rotation") is not None:
+                raise LocalError("give add_plane a normal or a rotation, not both")
+            placement["rotation"] = _rotation_to_z(check.nonzero_vector3(normal, "normal"))
+        return self._add(name, Plane(), placement)
+
+    def add_convex(self, name: str, points: ArrayLike, **placement: Unpack[Placement]) -> int:
+        """Adds the convex hull of points (m, (N, 3), N >= 4, in the body frame)."""
+        return self._add(name, Convex(check.as_floats(points, "points")), placement)
+
+    def add_mesh(
+        self,
+        name: str,
+        vertices: ArrayLike,
+        triangles: ArrayLike,
+        representation: str = "auto",
+        **placement: Unpack[Placement],
+    ) -> int:
+        """Adds a triangle mesh: vertices (m, (N, 3)) and triangles ((M, 3) integer vertex
+        indices, counter-clockwise seen from outside), rendered as `representation`
+        ("auto": the cheapest within the scene's tolerance, or sphere, box, capsule,
+        convex, mesh)."""
+        mesh = Mesh(
+            check.as_floats(vertices, "vertices"),
+            check.as_indices(triangles, "triangles"),
+            representation,
+        )
+        return self._add(name, mesh, placement)
+
+    def add_mesh_file(
+        self,
+        name: str,
+        path: str,
+        representation: str = "auto",
+        scale: float = 1.0,
+        **placement: Unpack[Placement],
+    ) -> int:
+        """Adds the mesh of an OBJ, STL or PLY file, its coordinates times scale (e.g.
+        0.001 for a file in millimetres)."""
+        scale = check.positive(scale, "scale")
+        vertices, triangles = read_mesh_file(path)
+        return self._add(name, Mesh(vertices * scale, triangles, representation), placement)
+
+    def update_object(self, spec: ObjectSpec, *, timeout_s: float | None = None) -> int:
+        """Replaces the object of spec's name with spec; RemoteError NOT_FOUND if none."""
+        if not isinstance(spec, ObjectSpec):
+            raise LocalError(f"spec is {spec!r}; it must be an ObjectSpec")
+        message = pb.UpdateObject()
+        codec.fill_object(message.object, spec)
+        return self._edit("update_object", message, timeout_s)
+
+    def remove_object(self, name: str, *, timeout_s: float | None = None) -> int:
+        """Removes the object called name; RemoteError NOT_FOUND if there is none."""
+        message = pb.RemoveObject(name=check.object_name(name))
+        return self._edit("remove_object", message, timeout_s)
+
+    def set_material(
+        self, name: str, material: Material | dict[str, Any], *, timeout_s: float | None = None
+    ) -> int:
+        """Gives the object called name a new material."""
+        message = pb.SetMaterial(
+            name=check.object_name(name),
+            material=codec.material_message(material_from(material)),
+        )
+        return self._edit("set_material", message, timeout_s)
+
+    def move_kinematic(
+        self,
+        name: str,
+        position: ArrayLike,
+        rotation: ArrayLike | None = None,
+        velocity: ArrayLike = (0, 0, 0),
+        angular_velocity: ArrayLike = (0, 0, 0),
+        *,
+        timeout_s: float | None = None,
+    ) -> int:
+        """Moves a kinematic object to a pose, with its velocities from now on (m/s,
+        rad/s); RemoteError if it is static."""
+        message = pb.MoveKinematic(
+            name=check.object_name(name),
+            pose=codec.pose_message(Pose.of(position, rotation)),
+            velocity=codec.vec3(check.vector3(velocity, "velocity")),
+            angular_velocity=codec.vec3(check.vector3(angular_velocity, "angular_velocity")),
+        )
+        return self._edit("move_kinematic", message, timeout_s)
+
+    def clear_scene(self, *, timeout_s: float | None = None) -> int:
+        """Removes every object."""
+        return self._edit("clear_scene", pb.ClearScene(), timeout_s)
+
+    def scene(self, *, timeout_s: float | None = None) -> SceneInfo:
+        """The scene as the server holds it now."""
+        reply = self._call("get_scene", pb.GetScene(), timeout_s)
+        return _decoded(codec.scene_from, _body(reply, "scene", pb.SceneDescription))
+
+    # ---- queries ----
+
+    def ray_cast(
+        self,
+        origin: ArrayLike,
+        direction: ArrayLike,
+        max_distance: float = 10.0,
+        *,
+        timeout_s: float | None = None,
+    ) -> RayHit:
+        """The first surface the segment origin -> origin + max_distance * direction hits
+        (direction non-zero, normalised by the server; max_distance m, > 0)."""
+        message = pb.RayCast(
+            origin=codec.vec3(check.vector3(origin, "origin")),
+            direction=codec.vec3(check.nonzero_vector3(direction, "direction")),
+            max_distance=check.positive(max_distance, "max_distance"),
+        )
+        reply = self._call("ray_cast", message, timeout_s)
+        return _decoded(codec.ray_hit_from, _body(reply, "ray_hit", pb.RayHit))
+
+    def closest_point(
+        self, point: ArrayLike, max_distance: float = 1.0, *, timeout_s: float | None = None
+    ) -> ClosestPoint:
+        """The surface point nearest to point within max_distance (m, > 0)."""
+        message = pb.ClosestPoint(
+            point=codec.vec3(check.vector3(point, "point")),
+            max_distance=check.positive(max_distance, "max_distance"),
+        )
+        reply = self._call("closest_point", message, timeout_s)
+        return _decoded(
+            codec.closest_point_from, _body(reply, "closest_point", pb.ClosestPointResult)
+        )
+
+    def find_contacts(
+        self, center: ArrayLike, radius: float = 0.0, *, timeout_s: float | None = None
+    ) -> list[Contact]:
+        """The objects a sphere of radius (m, >= 0; 0: a point) at center touches."""
+        message = pb.FindContacts(
+            center=codec.vec3(check.vector3(center, "center")),
+            radius=check.non_negative(radius, "radius"),
+        )
+        reply = self._call("find_contacts", message, timeout_s)
+        return _decoded(codec.contacts_from, _body(reply, "contacts", pb.ContactsResult))
+
+    # ---- sessions ----
+
+    def open_session(
+        self,
+        device_type: str = "impedance",
+        *,
+        degrees_of_freedom: int = 3,
+        max_force: float = 10.0,
+        max_velocity: float = 2.0,
+        rate_hz: float = 1000.0,
+        max_force_rate: float = 0.0,
+        avatar: str = "point",
+        avatar_radius: float = 0.0,
+        method: str = "default",
+        force_shading: bool = False,
+        passivity: bool = False,
+        virtual_mass: float = 0.0,
+        virtual_damping: float = 0.0,
+        start: ArrayLike = (0, 0, 0),
+        session_timeout_s: float = 0.0,
+        timeout_s: float | None = None,
+    ) -> SessionInfo:
+        """Opens a device session (the capability handshake). device_type "impedance"
+        (position in, force out) or "admittance" (force in, pose out); max_force (N) and
+        max_velocity (m/s) the device's limits; rate_hz its state rate (<= 10 kHz);
+        max_force_rate N/s (0: none); avatar "point" or "sphere" (avatar_radius m > 0);
+        method "default", "penalty", "god_object" or "finger_proxy"; virtual_mass (kg)
+        and virtual_damping (N·s/m) for admittance (0: the server's 1 kg, 20 N·s/m);
+        start: the device's position now; session_timeout_s: reclaim after this long
+        without states (0: 2 s)."""
+        if degrees_of_freedom not in (3, 6):
+            raise LocalError(f"degrees_of_freedom is {degrees_of_freedom!r}; it must be 3 or 6")
+        check.choice(device_type, "device_type", tuple(DEVICE_TYPES))
+        check.choice(avatar, "avatar", tuple(AVATARS))
+        check.choice(method, "method", tuple(FORCE_METHODS))
+        radius = check.non_negative(avatar_radius, "avatar_radius")
+        if avatar == "sphere" and radius == 0:
+            raise LocalError("avatar_radius is 0.0; a sphere avatar needs a radius > 0")
+        rate = check.positive(rate_hz, "rate_hz")
+        if rate > MAX_RATE_HZ:
+            raise LocalError(f"rate_hz is {rate!r}; it must be <= {MAX_RATE_HZ!r}")
+        message = pb.OpenSession(
+            device_type=DEVICE_TYPES[device_type],
+            degrees_of_freedom=degrees_of_freedom,
+            max_force=check.positive(max_force, "max_force"),
+            max_velocity=check.positive(max_velocity, "max_velocity"),
+            rate_hz=rate,
+            max_force_rate=check.non_negative(max_force_rate, "max_force_rate"),
+            avatar=AVATARS[avatar],
+            avatar_radius=radius,
+            method=FORCE_METHODS[method],
+            force_shading=force_shading,
+            passivity=passivity,
+            virtual_mass=check.non_negative(virtual_mass, "virtual_mass"),
+            virtual_damping=check.non_negative(virtual_damping, "virtual_damping"),
+            start=codec.vec3(check.vector3(start, "start")),
+            timeout_s=check.non_negative(session_timeout_s, "session_timeout_s"),
+        )
+        opened = _body(
+            self._call("open_session", message, timeout_s), "session_opened", pb.SessionOpened
+        )
+        if len(opened.session_key) != 32:
+            raise ProtocolError(f"session key is {len(opened.session_key)} bytes; it must be 32")
+        try:
+            udp_host, udp_port = parse_address(opened.udp_endpoint, "udp_endpoint")
+        except LocalError as exc:
+            raise ProtocolError(f"the server's {exc}") from exc
+        # a wildcard bind is reached where the control channel is
+        if udp_host in ("0.0.0.0", "::"):
+            udp_host = self._connection.peer_host
+        return SessionInfo(
+            session_id=opened.session_id,
+            key=opened.session_key,
+            udp_host=udp_host,
+            udp_port=udp_port,
+            max_datagram=opened.max_datagram,
+            device_type=device_type,
+            rate_hz=rate,
+        )
+
+    def close_session(self, session_id: int, *, timeout_s: float | None = None) -> None:
+        """Closes a device session; RemoteError NOT_FOUND if there is none."""
+        _body(
+            self._call("close_session", pb.CloseSession(session_id=session_id), timeout_s),
+            "done",
+            pb.Done,
+        )
+
+    # ---- telemetry ----
+
+    def subscribe(
+        self,
+        rate_hz: float,
+        session_ids: Iterable[int] = (),
+        *,
+        timeout_s: float | None = None,
+    ) -> Subscription:
+        """Starts telemetry at rate_hz (> 0, <= 1000) for session_ids (empty: every
+        session) and waits for the server's first sample (RemoteError if it refuses).
+        Iterate the result for samples; each waits up to timeout_s (default: the
+        client's timeout plus two sample periods)."""
+        rate = check.positive(rate_hz, "rate_hz")
+        if rate > MAX_TELEMETRY_RATE_HZ:
+            raise LocalError(f"rate_hz is {rate!r}; it must be <= {MAX_TELEMETRY_RATE_HZ!r}")
+        wait_s = (
+            self.timeout_s + 2 / rate
+            if timeout_s is None
+            else check.positive(timeout_s, "timeout_s")
+        )
+        message = pb.Subscribe(rate_hz=rate, session_ids=list(session_ids))
+        connection = self._connection
+        subscription_id = connection.send("subscribe", message, self.timeout_s)
+        connection.start_subscription(subscription_id)
+        # the server answers a Subscribe at once: its first sample or an error
+        try:
+            first = _telemetry(connection.next_subscription_reply(subscription_id, self.timeout_s))
+        except BaseException:
+            connection.end_subscription(subscription_id)
+            raise
+        return Subscription(self, subscription_id, wait_s, first)
+
+    def stats(self, *, timeout_s: float | None = None) -> Stats:
+        """The server's counters and its sessions' statistics now."""
+        reply = self._call("get_stats", pb.GetStats(), timeout_s)
+        return _decoded(codec.stats_from, _body(reply, "stats", pb.Stats))
+
+
+class Subscription(Iterator[Telemetry]):
+    """Telemetry samples of one Subscribe, in order; close() (or leaving a with block)
+    unsubscribes."""
+
+    def __init__(
+        self, client: Client, subscription_id: int, timeout_s: float, first: Telemetry
+    ) -> None:
+        self._client = client
+        self.subscription_id = subscription_id
+        self.timeout_s = timeout_s
+        self._pending: Telemetry | None = first
+        self._open = True
+
+    def __enter__(self) -> Subscription:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def __next__(self) -> Telemetry:
+        return self.next()
+
+    def next(self, timeout_s: float | None = None) -> Telemetry:
+        """The next sample, waiting up to timeout_s (default: the subscription's)."""
+        if not self._open:
+            raise LocalError("the subscription is closed")
+        wait_s = self.timeout_s if timeout_s is None else check.positive(timeout_s, "timeout_s")
+        if self._pending is not None:
+            sample, self._pending = self._pending, None
+            return sample
+        connection = self._client._connection
+        try:
+            return _telemetry(connection.next_subscription_reply(self.subscription_id, wait_s))
+        except RemoteError:
+            self._open = False
+            connection.end_subscription(self.subscription_id)
+            raise
+
+    def close(self) -> None:
+        """Unsubscribes (when the connection is still open). Idempotent."""
+        if not self._open:
+            return
+        self._open = False
+        connection = self._client._connection
+        connection.end_subscription(self.subscription_id)
+        if not connection.closed:
+            message = pb.Unsubscribe(subscription_id=self.subscription_id)
+            connection.request("unsubscribe", message, self._client.timeout_s)
+
+
+def _telemetry(reply: pb.Reply) -> Telemetry:
+    """The sample a subscription's reply carries; RemoteError for an Error reply."""
+    if reply.WhichOneof("body") == "error":
+        raise remote_error(reply.error, "subscribe")
+    return _decoded(codec.telemetry_from, _body(reply, "telemetry", pb.Telemetry))
+
+
+def _spec(name: str, shape: Shape, placement: Placement) -> ObjectSpec:
+    """The ObjectSpec an add_* call describes."""
+    return ObjectSpec(
+        name=name,
+        shape=shape,
+        pose=Pose.of(placement.get("position", (0, 0, 0)), placement.get("rotation")),
+        material=material_from(placement.get("material")),
+        kinematic=bool(placement.get("kinematic", False)),
+        velocity=check.as_floats(placement.get("velocity", (0, 0, 0)), "velocity"),
+        angular_velocity=check.as_floats(
+            placement.get("angular_velocity", (0, 0, 0)), "angular_velocity"
+        ),
+    )
+
+
+def _rotation_to_z(normal: check.FloatArray) -> check.FloatArray:
+    """A rotation (quaternion w, x, y, z) taking the z axis onto normal's direction (the
+    shortest arc; for normal along -z, half a turn about x)."""
+    n = normal / np.linalg.norm(normal)
+    w = 1.0 + n[2]
+    if w < 1e-12:
+        return np.array([0.0, 1.0, 0.0, 0.0])
+    q = np.array([w, -n[1], n[0], 0.0])
+    result: check.FloatArray = q / np.linalg.norm(q)
+    return result

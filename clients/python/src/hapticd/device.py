@@ -1,0 +1,294 @@
+"""The realtime channel from the device's side: a DeviceSession sends the device's state
+over a real UDP socket and receives the server's command for it.
+
+Theory of operation. Each tick the device sends one DeviceState (sequence 1, 2, ...,
+its send time on time.monotonic_ns) and waits, up to a timeout, for the DeviceCommand
+that answers that sequence; the round trip is now minus the command's echoed send time:
+
+    device ── DeviceState{seq=n, send_time_ns=t} + tag ──▶ server
+           ◀── DeviceCommand{sequence=n, echo=t} + tag ─── (rtt = now - t)
+
+Whatever else arrives meanwhile is counted and dropped: a command for an older sequence
+(late after its own timeout) or a watchdog command is stale; a datagram whose tag does
+not verify, that does not parse or that names another session is bad. A state whose
+command does not come in time is lost. An impedance device reports in held_force the
+force it rendered since its previous state (by default the last command's force); an
+admittance device reports the person's force in sensed_force and goes where the
+command's position says.
+"""
+
+from __future__ import annotations
+
+import math
+import socket
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from hapticd._datagram import MAX_DATAGRAM_BYTES, decode_command, encode_state
+from hapticd._validate import FloatArray
+from hapticd.errors import ConnectionClosed, LocalError, ProtocolError
+from hapticd.results import SessionInfo
+from hapticd.v1 import hapticd_pb2 as pb
+
+MAX_RTT_US = 2**32 - 1
+
+
+@dataclass(frozen=True, eq=False)
+class Command:
+    """A command from the server: the state's sequence it answers (0: a watchdog
+    command), force (N) and torque (N·m) to render (impedance), position and orientation
+    (w, x, y, z) to take (admittance), the avatar's position (m), contact, whether the
+    watchdog is ramping the force down, the snapshot's scene version, and the measured
+    round trip (ns)."""
+
+    sequence: int
+    force: FloatArray
+    torque: FloatArray
+    position: FloatArray
+    orientation: FloatArray
+    avatar: FloatArray
+    contact: bool
+    watchdog: bool
+    scene_version: int
+    rtt_ns: int
+
+
+@dataclass
+class DeviceCounters:
+    """What happened on the realtime channel: states sent, fresh commands received,
+    states whose command never came in time (lost), late or watchdog commands (stale),
+    and datagrams that failed their tag, did not parse or named another session (bad)."""
+
+    sent: int = 0
+    received: int = 0
+    lost: int = 0
+    stale: int = 0
+    bad: int = 0
+
+
+def _vec3(message: pb.Vec3) -> FloatArray:
+    return np.array([message.x, message.y, message.z], dtype=np.float64)
+
+
+def _set_vec3(target: pb.Vec3, value: ArrayLike, name: str) -> tuple[float, float, float]:
+    """Writes a finite 3-vector into target; LocalError naming it otherwise."""
+    try:
+        x, y, z = (float(c) for c in np.asarray(value, dtype=np.float64).reshape(3))
+    except (TypeError, ValueError) as exc:
+        raise LocalError(f"{name} is {value!r}; it must be 3 numbers") from exc
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
+        raise LocalError(f"{name} is {[x, y, z]}; it must be finite")
+    target.x, target.y, target.z = x, y, z
+    return x, y, z
+
+
+def _command(message: pb.DeviceCommand, rtt_ns: int) -> Command:
+    """A Command from its message; an absent orientation is the identity."""
+    q = message.orientation
+    orientation = (
+        np.array([q.w, q.x, q.y, q.z])
+        if message.HasField("orientation")
+        else np.array([1.0, 0.0, 0.0, 0.0])
+    )
+    return Command(
+        sequence=message.sequence,
+        force=_vec3(message.force),
+        torque=_vec3(message.torque),
+        position=_vec3(message.position),
+        orientation=orientation,
+        avatar=_vec3(message.avatar),
+        contact=message.contact,
+        watchdog=bool(message.flags & pb.COMMAND_FLAGS_WATCHDOG),
+        scene_version=message.scene_version,
+        rtt_ns=rtt_ns,
+    )
+
+
+class DeviceSession:
+    """One device's end of a session opened with Client.open_session (see the module's
+    theory of operation). Not thread-safe; close() or use as a context manager."""
+
+    def __init__(self, info: SessionInfo) -> None:
+        self.info = info
+        self.counters = DeviceCounters()
+        self.rtt_ns: list[int] = []
+        self.last_command: Command | None = None
+        self._sequence = 0
+        self._last_rtt_us = 0
+        self._state = pb.DeviceState(session_id=info.session_id)
+        family, kind, proto, _, address = socket.getaddrinfo(
+            info.udp_host, info.udp_port, type=socket.SOCK_DGRAM
+        )[0]
+        self._socket: socket.socket | None = socket.socket(family, kind, proto)
+        # connected: the kernel drops datagrams from anyone but the server's endpoint
+        self._socket.connect(address)
+
+    def __enter__(self) -> DeviceSession:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Closes the UDP socket (the server's session stays until closed or timed out)."""
+        if self._socket is not None:
+            self._socket.close()
+            self._socket = None
+
+    @property
+    def sequence(self) -> int:
+        """The sequence number of the last state sent (0: none yet)."""
+        return self._sequence
+
+    def _live_socket(self) -> socket.socket:
+        if self._socket is None:
+            raise LocalError("the device session is closed")
+        return self._socket
+
+    def send_state(
+        self,
+        position: ArrayLike,
+        velocity: ArrayLike = (0.0, 0.0, 0.0),
+        *,
+        buttons: int = 0,
+        held_force: ArrayLike | None = None,
+        sensed_force: ArrayLike | None = None,
+    ) -> int:
+        """Sends one state: the handle's position (m) and velocity (m/s) in W, the pressed
+        buttons (bit i: button i), for impedance the force held since the previous state
+        (N; default the last command's force), for admittance the person's force at the
+        handle (N, required). Returns its sequence number. LocalError for a non-finite
+        value or a missing sensed_force."""
+        sock = self._live_socket()
+        state = self._state
+        _set_vec3(state.position, position, "position")
+        _set_vec3(state.velocity, velocity, "velocity")
+        if not 0 <= buttons < 2**32:
+            raise LocalError(f"buttons is {buttons!r}; it must fit in 32 bits")
+        state.buttons = buttons
+        if self.info.device_type == "admittance":
+            if sensed_force is None:
+                raise LocalError("sensed_force is missing; an admittance device must send it")
+            _set_vec3(state.sensed_force, sensed_force, "sensed_force")
+        else:
+            held = held_force
+            if held is None:
+                held = self.last_command.force if self.last_command else (0.0, 0.0, 0.0)
+            _set_vec3(state.held_force, held, "held_force")
+        self._sequence += 1
+        state.sequence = self._sequence
+        state.rtt_us = self._last_rtt_us
+        state.send_time_ns = time.monotonic_ns()
+        datagram = encode_state(state, self.info.key)
+        try:
+            sock.send(datagram)
+        except OSError as exc:
+            raise ConnectionClosed(f"sending state {self._sequence} failed: {exc}") from exc
+        self.counters.sent += 1
+        return self._sequence
+
+    def _receive_verified(self, deadline: float, what: str) -> tuple[pb.DeviceCommand, int] | None:
+        """The next datagram that verifies and names this session, with its arrival time
+        (ns), or None at the deadline; counts the bad ones it skips."""
+        sock = self._live_socket()
+        while True:
+            remaining = deadline - time.monotonic()
+            try:
+                if remaining <= 0:
+                    return None
+                sock.settimeout(remaining)
+                datagram = sock.recv(MAX_DATAGRAM_BYTES + 1)
+            except TimeoutError:
+                return None
+            except OSError as exc:
+                raise ConnectionClosed(f"receiving {what} failed: {exc}") from exc
+            received_ns = time.monotonic_ns()
+            try:
+                message = decode_command(datagram, self.info.key)
+            except ProtocolError:
+                self.counters.bad += 1
+                continue
+            if message.session_id != self.info.session_id:
+                self.counters.bad += 1
+                continue
+            return message, received_ns
+
+    def receive_command(self, sequence: int, timeout_s: float) -> Command | None:
+        """The command answering state `sequence`, waiting up to timeout_s; None (and the
+        state counted lost) when it does not come in time. ConnectionClosed when the
+        server's port is unreachable."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            received = self._receive_verified(deadline, f"the command for state {sequence}")
+            if received is None:
+                self.counters.lost += 1
+                return None
+            message, received_ns = received
+            # a sequence never sent is bad; an older state's or the watchdog's is stale
+            if message.sequence > sequence:
+                self.counters.bad += 1
+            elif message.sequence != sequence:
+                self.counters.stale += 1
+            else:
+                return self._accept(message, received_ns)
+
+    def next_command(self, timeout_s: float) -> Command | None:
+        """The next command of this session whatever it answers, watchdog commands
+        included (sequence 0, watchdog True), or None after timeout_s. Use it to watch
+        the watchdog after states stop; it records no round trip (rtt_ns 0) and counts
+        nothing but bad datagrams."""
+        received = self._receive_verified(time.monotonic() + timeout_s, "a command")
+        return None if received is None else _command(received[0], 0)
+
+    def _accept(self, message: pb.DeviceCommand, received_ns: int) -> Command:
+        """Records a fresh command and its round trip."""
+        rtt_ns = received_ns - message.echo_send_time_ns
+        self.rtt_ns.append(rtt_ns)
+        self._last_rtt_us = min(max(rtt_ns // 1000, 0), MAX_RTT_US)
+        self.counters.received += 1
+        command = _command(message, rtt_ns)
+        self.last_command = command
+        return command
+
+    def exchange(
+        self,
+        position: ArrayLike,
+        velocity: ArrayLike = (0.0, 0.0, 0.0),
+        *,
+        timeout_s: float = 0.01,
+        buttons: int = 0,
+        held_force: ArrayLike | None = None,
+        sensed_force: ArrayLike | None = None,
+    ) -> Command | None:
+        """send_state then receive_command for it: the command, or None when lost."""
+        sequence = self.send_state(
+            position, velocity, buttons=buttons, held_force=held_force, sensed_force=sensed_force
+        )
+        return self.receive_command(sequence, timeout_s)
+
+
+@dataclass
+class RttSummary:
+    """Round-trip percentiles (µs) of a run, and how many round trips they are over."""
+
+    samples: int
+    p50_us: float
+    p90_us: float
+    p99_us: float
+    p999_us: float
+    max_us: float
+
+
+def summarize_rtt(rtt_ns: list[int]) -> RttSummary:
+    """Percentiles of round trips (ns) in µs; NaN each when there are none."""
+    if not rtt_ns:
+        nan = float("nan")
+        return RttSummary(0, nan, nan, nan, nan, nan)
+    values = np.asarray(rtt_ns, dtype=np.float64) / 1000
+    p50, p90, p99, p999 = np.percentile(values, [50, 90, 99, 99.9])
+    return RttSummary(
+        len(values), float(p50), float(p90), float(p99), float(p999), float(values.max())
+    )

@@ -1,0 +1,206 @@
+"""Scene objects as the client describes them: shapes, materials, poses and whole object
+specifications. Units SI (m, N/m, N·s/m); poses in the world frame W. Every constructor
+validates its arguments and raises LocalError naming a bad one; arrays are stored as
+float64 (points) or uint32 (triangle indices) numpy arrays.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from hapticd import _validate as check
+from hapticd._validate import FloatArray, IndexArray
+from hapticd.errors import LocalError
+
+REPRESENTATIONS = ("auto", "sphere", "box", "capsule", "convex", "mesh")
+
+
+def _zeros() -> FloatArray:
+    return np.zeros(3)
+
+
+def _identity() -> FloatArray:
+    return np.array([1.0, 0.0, 0.0, 0.0])
+
+
+@dataclass(frozen=True)
+class Material:
+    """How an object feels: stiffness (N/m, > 0), damping along the normal (N·s/m,
+    >= 0), static and dynamic friction coefficients (>= 0, dynamic <= static), and
+    force shading (None: the server's default, on)."""
+
+    stiffness: float = 1000.0
+    damping: float = 0.0
+    static_friction: float = 0.0
+    dynamic_friction: float = 0.0
+    force_shading: bool | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "stiffness", check.positive(self.stiffness, "material.stiffness"))
+        object.__setattr__(self, "damping", check.non_negative(self.damping, "material.damping"))
+        static = check.non_negative(self.static_friction, "material.static_friction")
+        dynamic = check.non_negative(self.dynamic_friction, "material.dynamic_friction")
+        if dynamic > static:
+            raise LocalError(
+                f"material.dynamic_friction is {dynamic!r}; it must be <= "
+                f"material.static_friction ({static!r})"
+            )
+        object.__setattr__(self, "static_friction", static)
+        object.__setattr__(self, "dynamic_friction", dynamic)
+
+
+@dataclass(frozen=True, eq=False)
+class Pose:
+    """A rigid pose in W: position (m, shape (3,)) and orientation as a unit quaternion
+    (w, x, y, z). Build one with Pose.of(position, rotation)."""
+
+    position: FloatArray = field(default_factory=_zeros)
+    orientation: FloatArray = field(default_factory=_identity)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "position", check.vector3(self.position, "position"))
+        object.__setattr__(self, "orientation", check.quaternion(self.orientation, "rotation"))
+
+    @classmethod
+    def of(cls, position: ArrayLike = (0, 0, 0), rotation: ArrayLike | None = None) -> Pose:
+        """The pose at position with rotation: a quaternion (w, x, y, z), a 3x3 rotation
+        matrix (columns the body's axes in W) or None (identity)."""
+        return cls(
+            check.vector3(position, "position"),
+            _identity() if rotation is None else check.quaternion(rotation, "rotation"),
+        )
+
+    @property
+    def rotation(self) -> FloatArray:
+        """The orientation as a 3x3 rotation matrix (columns the body's axes in W)."""
+        return check.quaternion_to_rotation(self.orientation)
+
+
+@dataclass(frozen=True)
+class Sphere:
+    """A sphere of radius (m, > 0) centred at the body origin."""
+
+    radius: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "radius", check.positive(self.radius, "radius"))
+
+
+@dataclass(frozen=True, eq=False)
+class Box:
+    """A box with half_extents (m, each > 0) along the body's axes, centred at its origin."""
+
+    half_extents: FloatArray
+
+    def __post_init__(self) -> None:
+        half = check.vector3(self.half_extents, "half_extents")
+        if np.any(half <= 0):
+            raise LocalError(f"half_extents is {half.tolist()}; each must be > 0")
+        object.__setattr__(self, "half_extents", half)
+
+
+@dataclass(frozen=True)
+class Capsule:
+    """A capsule: radius (m, > 0) around the segment of half_length (m, >= 0) along the
+    body's z axis."""
+
+    radius: float
+    half_length: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "radius", check.positive(self.radius, "radius"))
+        object.__setattr__(self, "half_length", check.non_negative(self.half_length, "half_length"))
+
+
+@dataclass(frozen=True)
+class Plane:
+    """The half-space below the body's xy plane: its z axis is the outward normal."""
+
+
+@dataclass(frozen=True, eq=False)
+class Convex:
+    """The convex hull of points (m, shape (N, 3), N >= 4, in the body frame)."""
+
+    points: FloatArray
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "points", check.points(self.points, "points", minimum=4))
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """A triangle mesh in the body frame: vertices (m, shape (N, 3)), triangles (vertex
+    indices, shape (M, 3), counter-clockwise seen from outside) and the representation
+    the server should render it as ("auto": the cheapest within the scene's tolerance)."""
+
+    vertices: FloatArray
+    triangles: IndexArray
+    representation: str = "auto"
+
+    def __post_init__(self) -> None:
+        vertices = check.points(self.vertices, "vertices", minimum=3)
+        object.__setattr__(self, "vertices", vertices)
+        object.__setattr__(
+            self, "triangles", check.triangles(self.triangles, "triangles", len(vertices))
+        )
+        check.choice(self.representation, "representation", REPRESENTATIONS)
+
+
+Shape = Sphere | Box | Capsule | Plane | Convex | Mesh
+SHAPE_TYPES = (Sphere, Box, Capsule, Plane, Convex, Mesh)
+
+
+@dataclass(frozen=True, eq=False)
+class ObjectSpec:
+    """One object to add to (or replace in) the scene: a unique name, a shape, its pose
+    in W, its material, and for a kinematic object its velocity (m/s) and angular
+    velocity (rad/s) in W. A static object has zero velocities."""
+
+    name: str
+    shape: Shape
+    pose: Pose = field(default_factory=Pose)
+    material: Material = field(default_factory=Material)
+    kinematic: bool = False
+    velocity: FloatArray = field(default_factory=_zeros)
+    angular_velocity: FloatArray = field(default_factory=_zeros)
+
+    def __post_init__(self) -> None:
+        check.object_name(self.name)
+        if not isinstance(self.shape, SHAPE_TYPES):
+            raise LocalError(
+                f"shape is {self.shape!r}; it must be a Sphere, Box, Capsule, Plane, Convex or Mesh"
+            )
+        if not isinstance(self.pose, Pose):
+            raise LocalError(f"pose is {self.pose!r}; it must be a Pose")
+        if not isinstance(self.material, Material):
+            raise LocalError(f"material is {self.material!r}; it must be a Material")
+        velocity = check.vector3(self.velocity, "velocity")
+        angular = check.vector3(self.angular_velocity, "angular_velocity")
+        if not self.kinematic and (np.any(velocity) or np.any(angular)):
+            raise LocalError(
+                f"object {self.name!r} is static but has velocity {velocity.tolist()} and "
+                f"angular_velocity {angular.tolist()}; only a kinematic object moves"
+            )
+        object.__setattr__(self, "velocity", velocity)
+        object.__setattr__(self, "angular_velocity", angular)
+
+
+def material_from(value: Material | dict[str, Any] | None) -> Material:
+    """A Material from a Material, a dict of its fields, or None (the defaults)."""
+    if value is None:
+        return Material()
+    if isinstance(value, Material):
+        return value
+    if isinstance(value, dict):
+        unknown = set(value) - set(Material.__dataclass_fields__)
+        if unknown:
+            raise LocalError(
+                f"material has unknown field(s) {sorted(unknown)}; it takes "
+                f"{', '.join(Material.__dataclass_fields__)}"
+            )
+        return Material(**value)
+    raise LocalError(f"material is {value!r}; it must be a Material, a dict or None")

@@ -1,0 +1,149 @@
+#include "server/app/server.h"
+
+#include <csignal>
+#include <fstream>
+
+#include <asio/io_context.hpp>
+#include <asio/signal_set.hpp>
+#include <asio/steady_timer.hpp>
+#include <fmt/format.h>
+
+#include "server/net/control_server.h"
+#include "server/net/control_service.h"
+#include "server/net/log.h"
+#include "server/net/realtime_channel.h"
+
+namespace hapticd::app {
+namespace {
+
+using namespace std::chrono_literals;
+using net::Log;
+using net::LogLevel;
+
+// Reader slots: the realtime thread, plus room to grow.
+constexpr int kSnapshotReaders = 4;
+
+std::string FormatEndpoint(const asio::ip::address& address, unsigned short port) {
+  return address.is_v6() ? fmt::format("[{}]:{}", address.to_string(), port)
+                         : fmt::format("{}:{}", address.to_string(), port);
+}
+
+std::string ReadToken(const std::string& path) {
+  std::ifstream file(path);
+  std::string token;
+  if (!file || !std::getline(file, token)) {
+    throw std::runtime_error(fmt::format("--access-token-file {} cannot be read", path));
+  }
+  if (token.size() < 16) {
+    throw std::runtime_error(fmt::format("the access token in {} has {} characters; use at least 16", path,
+                                         token.size()));
+  }
+  return token;
+}
+
+}  // namespace
+
+struct Server::Impl {
+  Impl(const ServerOptions& options, scene::SceneBuilder initial)
+      : publisher(initial.Build(1), kSnapshotReaders),
+        sessions(options.max_sessions),
+        realtime(asio::ip::udp::endpoint(asio::ip::make_address(options.host),
+                                         static_cast<unsigned short>(options.udp_port)),
+                 sessions, publisher),
+        service(std::move(initial), publisher, sessions, realtime.counters(), MakeServiceOptions(options)),
+        control(context, service, MakeControlOptions(options)),
+        housekeeping(context),
+        signals(context, SIGINT, SIGTERM) {}
+
+  net::ServiceOptions MakeServiceOptions(const ServerOptions& options) {
+    net::ServiceOptions service_options;
+    service_options.udp_endpoint =
+        FormatEndpoint(realtime.local_endpoint().address(), realtime.local_endpoint().port());
+    if (!options.access_token_file.empty()) service_options.access_token = ReadToken(options.access_token_file);
+    return service_options;
+  }
+
+  static net::ControlServerOptions MakeControlOptions(const ServerOptions& options) {
+    net::ControlServerOptions control_options;
+    control_options.endpoint = asio::ip::tcp::endpoint(asio::ip::make_address(options.host),
+                                                       static_cast<unsigned short>(options.tcp_port));
+    if (!options.tls_certificate.empty()) control_options.tls = net::TlsFiles{options.tls_certificate, options.tls_key};
+    return control_options;
+  }
+
+  // Every 50 ms: hand back finished sessions' slots; every 5 s: report the realtime
+  // thread's drop counters when they grew (it cannot log itself).
+  void Housekeep() {
+    housekeeping.expires_after(50ms);
+    housekeeping.async_wait([this](std::error_code error) {
+      if (error) return;
+      service.ReclaimSessions();
+      if (++housekeeping_ticks % 100 == 0) ReportDrops();
+      Housekeep();
+    });
+  }
+
+  void ReportDrops() {
+    const auto& c = realtime.counters();
+    const uint64_t dropped = c.malformed + c.oversized + c.unknown_session + c.bad_tag + c.replayed + c.reordered;
+    if (dropped == reported_drops && c.send_errors == reported_send_errors) return;
+    Log(LogLevel::kWarning,
+        "realtime drops so far: {} malformed, {} oversized, {} unknown session, {} bad tag, {} replayed, "
+        "{} reordered; {} send errors",
+        c.malformed.load(), c.oversized.load(), c.unknown_session.load(), c.bad_tag.load(), c.replayed.load(),
+        c.reordered.load(), c.send_errors.load());
+    reported_drops = dropped;
+    reported_send_errors = c.send_errors;
+  }
+
+  asio::io_context context;
+  scene::SnapshotPublisher publisher;
+  net::SessionTable sessions;
+  net::RealtimeChannel realtime;
+  net::ControlService service;
+  net::ControlServer control;
+  asio::steady_timer housekeeping;
+  asio::signal_set signals;
+  uint64_t housekeeping_ticks = 0;
+  uint64_t reported_drops = 0;
+  uint64_t reported_send_errors = 0;
+};
+
+Server::Server(const ServerOptions& options, scene::SceneBuilder initial)
+    : impl_(std::make_unique<Impl>(options, std::move(initial))),
+      realtime_priority_(options.realtime_priority) {}
+
+Server::~Server() = default;
+
+std::string Server::EndpointsJson() const {
+  const auto tcp = impl_->control.local_endpoint();
+  const auto udp = impl_->realtime.local_endpoint();
+  return fmt::format(R"({{"tcp": "{}", "udp": "{}"}})", FormatEndpoint(tcp.address(), tcp.port()),
+                     FormatEndpoint(udp.address(), udp.port()));
+}
+
+void Server::Run() {
+  Impl& impl = *impl_;
+  impl.signals.async_wait([&impl](std::error_code error, int signal) {
+    if (error) return;
+    Log(LogLevel::kInfo, "{} received; stopping", signal == SIGINT ? "SIGINT" : "SIGTERM");
+    impl.housekeeping.cancel();
+    impl.control.Stop();
+    impl.realtime.Stop();
+  });
+  const bool prioritized = impl.realtime.Start(realtime_priority_);
+  if (realtime_priority_ > 0) {
+    Log(LogLevel::kInfo, "the realtime thread runs at {}", prioritized
+            ? fmt::format("SCHED_FIFO priority {}", realtime_priority_)
+            : fmt::format("normal priority (SCHED_FIFO {} was not granted)", realtime_priority_));
+  }
+  impl.control.Start();
+  impl.Housekeep();
+  Log(LogLevel::kInfo, "serving {} ({} objects, up to {} sessions)", EndpointsJson(),
+      impl.publisher.current()->num_objects(), impl.sessions.capacity());
+  impl.context.run();
+  impl.realtime.Stop();
+  Log(LogLevel::kInfo, "stopped after {} datagrams", impl.realtime.counters().datagrams_received.load());
+}
+
+}  // namespace hapticd::app

@@ -1,0 +1,106 @@
+#include "server/app/server_options.h"
+
+#include <charconv>
+
+#include <asio/ip/address.hpp>
+#include <fmt/format.h>
+
+namespace hapticd::app {
+namespace {
+
+int ReadInt(std::string_view option, std::string_view text, int min, int max) {
+  int value = 0;
+  const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
+  if (error != std::errc() || end != text.data() + text.size() || value < min || value > max) {
+    throw OptionsError(fmt::format("{} is \"{}\"; it must be a whole number from {} to {}", option, text, min, max));
+  }
+  return value;
+}
+
+}  // namespace
+
+std::string_view Usage() {
+  return R"(usage: hapticd [options]
+
+Networked haptic rendering server: a UDP realtime channel for devices at 1 kHz and a
+TCP control channel (length-prefixed protobuf, proto/hapticd/v1/hapticd.proto) for
+scene edits, queries, sessions and telemetry. The first line on stdout is JSON naming
+the bound endpoints, e.g. {"tcp": "127.0.0.1:7460", "udp": "127.0.0.1:7461"}; logs go
+to stderr. SIGINT or SIGTERM stop it.
+
+options:
+  --host ADDRESS            address to bind (default 127.0.0.1); anything but loopback
+                            needs --tls-cert, --tls-key and --access-token-file
+  --tcp-port PORT           control channel port (default 7460; 0: any free port)
+  --udp-port PORT           realtime channel port (default 7461; 0: any free port)
+  --scene FILE              start on this scene file ({"scene": {...}} in the scenario
+                            format of shared/scenarios/FORMAT.md) instead of the
+                            embedded default scene
+  --max-sessions N          device sessions held at once (default 256)
+  --realtime-priority N     SCHED_FIFO priority of the realtime thread (default 20;
+                            0: normal scheduling; needs CAP_SYS_NICE, else normal)
+  --tls-cert FILE           PEM certificate chain: TLS on the control channel
+  --tls-key FILE            PEM private key for --tls-cert
+  --access-token-file FILE  its first line is the token clients send in Hello
+  --log-level LEVEL         debug, info, warning or error (default info)
+  --help                    this text
+)";
+}
+
+ServerOptions ParseServerOptions(std::span<const std::string_view> args) {
+  ServerOptions options;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string_view option = args[i];
+    if (option == "--help" || option == "-h") {
+      options.help = true;
+      return options;
+    }
+    if (i + 1 >= args.size()) {
+      throw OptionsError(option.starts_with("--") ? fmt::format("{} needs a value", option)
+                                                  : fmt::format("unexpected argument \"{}\"", option));
+    }
+    const std::string_view value = args[++i];
+    if (option == "--host") {
+      options.host = value;
+    } else if (option == "--tcp-port") {
+      options.tcp_port = ReadInt(option, value, 0, 65535);
+    } else if (option == "--udp-port") {
+      options.udp_port = ReadInt(option, value, 0, 65535);
+    } else if (option == "--scene") {
+      options.scene_file = value;
+    } else if (option == "--max-sessions") {
+      options.max_sessions = ReadInt(option, value, 1, 4096);
+    } else if (option == "--realtime-priority") {
+      options.realtime_priority = ReadInt(option, value, 0, 99);
+    } else if (option == "--tls-cert") {
+      options.tls_certificate = value;
+    } else if (option == "--tls-key") {
+      options.tls_key = value;
+    } else if (option == "--access-token-file") {
+      options.access_token_file = value;
+    } else if (option == "--log-level") {
+      options.log_level = net::ParseLogLevel(value);
+      if (options.log_level == net::LogLevel::kCount) {
+        throw OptionsError(fmt::format("--log-level is \"{}\"; it must be debug, info, warning or error", value));
+      }
+    } else {
+      throw OptionsError(fmt::format("unknown option \"{}\" (see --help)", option));
+    }
+  }
+
+  // The address must parse, and leaving loopback needs TLS and a token.
+  std::error_code error;
+  const auto address = asio::ip::make_address(options.host, error);
+  if (error) throw OptionsError(fmt::format("--host is \"{}\"; it is not an IP address", options.host));
+  if (options.tls_certificate.empty() != options.tls_key.empty()) {
+    throw OptionsError("--tls-cert and --tls-key go together; give both or neither");
+  }
+  if (!address.is_loopback() && (options.tls_certificate.empty() || options.access_token_file.empty())) {
+    throw OptionsError(fmt::format("--host is {}, not loopback: the control channel then needs TLS "
+                                   "(--tls-cert, --tls-key) and an access token (--access-token-file)",
+                                   options.host));
+  }
+  return options;
+}
+
+}  // namespace hapticd::app

@@ -1,0 +1,38 @@
+#pragma once
+// hapticd's command line, read into plain options. Bad options throw OptionsError with
+// a message naming the option and value; --help sets `help`.
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include "server/net/log.h"
+
+namespace hapticd::app {
+
+class OptionsError : public std::invalid_argument {
+ public:
+  using std::invalid_argument::invalid_argument;
+};
+
+struct ServerOptions {
+  bool help = false;
+  std::string host = "127.0.0.1";
+  int tcp_port = 7460;  // 0: any free port
+  int udp_port = 7461;
+  std::string scene_file;  // empty: the embedded default scene
+  int max_sessions = 256;
+  int realtime_priority = 20;  // SCHED_FIFO priority of the realtime thread; 0: normal
+  std::string tls_certificate;  // PEM chain; with tls_key turns TLS on
+  std::string tls_key;
+  std::string access_token_file;  // first line is the token clients must Hello with
+  net::LogLevel log_level = net::LogLevel::kInfo;
+};
+
+// The usage text printed by --help.
+std::string_view Usage();
+
+// args without the program name. Off loopback, TLS and an access token are required.
+ServerOptions ParseServerOptions(std::span<const std::string_view> args);
+
+}  // namespace hapticd::app

@@ -1,0 +1,452 @@
+#include "server/net/control_service.h"
+
+#include <sodium.h>
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "server/force/scene_queries.h"
+#include "server/force/shape_queries.h"
+#include "server/net/log.h"
+#include "server/net/proto_convert.h"
+#include "server/net/request_error.h"
+
+namespace hapticd::net {
+namespace {
+
+using geometry::Vector3;
+
+constexpr uint32_t kProtocolVersion = 1;
+constexpr double kMaxTelemetryRateHz = 1000;
+// How long an ended session stays in telemetry after it was reclaimed.
+constexpr int64_t kEndedVisibleNs = 2'000'000'000;
+
+v1::SessionState ToProto(SlotState state) {
+  switch (state) {
+    case SlotState::kWaiting: return v1::SESSION_STATE_WAITING;
+    case SlotState::kActive: return v1::SESSION_STATE_ACTIVE;
+    case SlotState::kRamping: return v1::SESSION_STATE_RAMPING;
+    case SlotState::kClosed: return v1::SESSION_STATE_CLOSED;
+    case SlotState::kTimedOut: return v1::SESSION_STATE_TIMED_OUT;
+    case SlotState::kFree: break;
+  }
+  return v1::SESSION_STATE_UNSPECIFIED;
+}
+
+std::string SessionName(uint32_t id) { return fmt::format("{:08x}", id); }
+
+}  // namespace
+
+ControlService::ControlService(scene::SceneBuilder initial, scene::SnapshotPublisher& publisher,
+                               SessionTable& sessions, const RealtimeCounters& realtime, ServiceOptions options)
+    : builder_(std::move(initial)),
+      publisher_(publisher),
+      sessions_(sessions),
+      realtime_(realtime),
+      options_(std::move(options)) {
+  if (sodium_init() < 0) throw std::runtime_error("libsodium failed to initialise");
+  scene_version_ = publisher_.current()->version();
+}
+
+v1::Reply ControlService::MakeError(uint64_t request_id, v1::Error::Code code, const std::string& message) {
+  ++control_errors_;
+  v1::Reply reply;
+  reply.set_request_id(request_id);
+  reply.mutable_error()->set_code(code);
+  reply.mutable_error()->set_message(message);
+  return reply;
+}
+
+v1::Reply ControlService::Handle(const v1::Request& request, ConnectionState& connection) {
+  ReclaimSessions();
+  try {
+    // Fields this protocol version does not define mean the two sides disagree: refuse
+    // the request rather than act on half of it.
+    const std::string unknown = FindUnknownField(request, "request");
+    if (!unknown.empty()) {
+      throw BadRequest(unknown + " is not part of hapticd.v1; is the client built for another version?");
+    }
+    v1::Reply reply = Dispatch(request, connection);
+    reply.set_request_id(request.request_id());
+    return reply;
+  } catch (const RequestError& e) {
+    Log(LogLevel::kDebug, "request {} refused: {}", request.request_id(), e.what());
+    return MakeError(request.request_id(), e.code(), e.what());
+  } catch (const scene::SceneError& e) {
+    Log(LogLevel::kDebug, "request {} refused: {}", request.request_id(), e.what());
+    return MakeError(request.request_id(), v1::Error::CODE_BAD_REQUEST, e.what());
+  } catch (const std::exception& e) {
+    Log(LogLevel::kError, "request {} failed: {}", request.request_id(), e.what());
+    return MakeError(request.request_id(), v1::Error::CODE_INTERNAL, e.what());
+  }
+}
+
+v1::Reply ControlService::Dispatch(const v1::Request& request, ConnectionState& connection) {
+  using R = v1::Request;
+  // Off loopback, nothing but a Hello with the token until one succeeded.
+  if (!connection.authenticated && request.body_case() != R::kHello) {
+    throw RequestError(v1::Error::CODE_UNAUTHENTICATED,
+                       "this connection must send a Hello with the server's access token first");
+  }
+  switch (request.body_case()) {
+    case R::kHello: {
+      const v1::Hello& hello = request.hello();
+      if (hello.protocol_version() != kProtocolVersion) {
+        throw BadRequest(fmt::format("hello.protocol_version is {}; this server speaks {}",
+                                     hello.protocol_version(), kProtocolVersion));
+      }
+      if (!connection.authenticated) {
+        // Constant-time comparison of equal-length strings; a length mismatch is a miss.
+        const std::string& token = hello.access_token();
+        const bool match = token.size() == options_.access_token.size() &&
+                           sodium_memcmp(token.data(), options_.access_token.data(), token.size()) == 0;
+        if (!match || options_.access_token.empty()) {
+          throw RequestError(v1::Error::CODE_UNAUTHENTICATED, "hello.access_token is not this server's token");
+        }
+        connection.authenticated = true;
+      }
+      v1::Reply reply;
+      reply.mutable_hello()->set_protocol_version(kProtocolVersion);
+      reply.mutable_hello()->set_server_name(options_.server_name);
+      reply.mutable_hello()->set_udp_endpoint(options_.udp_endpoint);
+      return reply;
+    }
+    case R::kOpenSession: return OpenSession(request.open_session());
+    case R::kCloseSession: return CloseSession(request.close_session());
+    case R::kAddObject: {
+      const scene::ObjectSpec spec = ReadObject(request.add_object().object(), "add_object.object");
+      if (publisher_.current()->FindObject(spec.name) >= 0) {
+        throw RequestError(v1::Error::CODE_ALREADY_EXISTS,
+                           fmt::format("add_object.object.name is \"{}\"; an object of that name exists "
+                                       "(use update_object to replace it)",
+                                       spec.name));
+      }
+      builder_.Add(spec);
+      PublishScene();
+      return Done();
+    }
+    case R::kUpdateObject: {
+      const scene::ObjectSpec spec = ReadObject(request.update_object().object(), "update_object.object");
+      RequireObject(spec.name, "update_object.object.name");
+      builder_.Update(spec);
+      PublishScene();
+      return Done();
+    }
+    case R::kRemoveObject:
+      RequireObject(request.remove_object().name(), "remove_object.name");
+      builder_.Remove(request.remove_object().name());
+      PublishScene();
+      return Done();
+    case R::kSetMaterial: {
+      const auto& set = request.set_material();
+      RequireObject(set.name(), "set_material.name");
+      builder_.SetMaterial(set.name(), ReadMaterial(set.material(), "set_material.material"));
+      PublishScene();
+      return Done();
+    }
+    case R::kMoveKinematic: {
+      const auto& move = request.move_kinematic();
+      RequireObject(move.name(), "move_kinematic.name");
+      builder_.MoveKinematic(move.name(), ReadPose(move.pose(), move.has_pose(), "move_kinematic.pose"),
+                             ReadVector(move.velocity(), "move_kinematic.velocity"),
+                             ReadVector(move.angular_velocity(), "move_kinematic.angular_velocity"));
+      PublishScene();
+      return Done();
+    }
+    case R::kClearScene:
+      builder_ = scene::SceneBuilder(builder_.settings());
+      PublishScene();
+      return Done();
+    case R::kGetScene: {
+      const auto snapshot = publisher_.current();
+      v1::Reply reply;
+      v1::SceneDescription* description = reply.mutable_scene();
+      description->set_version(snapshot->version());
+      description->set_tolerance(snapshot->settings().tolerance);
+      for (const auto& object : snapshot->objects()) WriteObjectInfo(object, description->add_objects());
+      return reply;
+    }
+    case R::kRayCast: return RayCast(request.ray_cast());
+    case R::kClosestPoint: return ClosestPoint(request.closest_point());
+    case R::kFindContacts: return FindContacts(request.find_contacts());
+    case R::kSubscribe: return Subscribe(request.request_id(), request.subscribe(), connection);
+    case R::kUnsubscribe: {
+      const uint64_t id = request.unsubscribe().subscription_id();
+      if (connection.subscriptions.erase(id) == 0) {
+        throw RequestError(v1::Error::CODE_NOT_FOUND,
+                           fmt::format("unsubscribe.subscription_id is {}; this connection has no such "
+                                       "subscription",
+                                       id));
+      }
+      connection.subscriptions_changed = true;
+      return Done();
+    }
+    case R::kGetStats: {
+      const Subscription everything;
+      const v1::Telemetry telemetry = BuildTelemetry(everything);
+      v1::Reply reply;
+      v1::Stats* stats = reply.mutable_stats();
+      stats->set_scene_version(telemetry.scene_version());
+      *stats->mutable_sessions() = telemetry.sessions();
+      *stats->mutable_counters() = telemetry.counters();
+      return reply;
+    }
+    case R::BODY_NOT_SET: break;
+  }
+  throw BadRequest("request has no body: it names none of the requests hapticd.v1 defines");
+}
+
+void ControlService::RequireObject(const std::string& name, const std::string& field) const {
+  if (publisher_.current()->FindObject(name) < 0) {
+    throw RequestError(v1::Error::CODE_NOT_FOUND,
+                       fmt::format("{} is \"{}\"; the scene has no object of that name", field, name));
+  }
+}
+
+void ControlService::PublishScene() {
+  publisher_.Publish(builder_.Build(++scene_version_));
+  Log(LogLevel::kDebug, "scene version {} published ({} objects)", scene_version_, builder_.num_objects());
+}
+
+v1::Reply ControlService::Done() {
+  v1::Reply reply;
+  reply.mutable_done()->set_scene_version(scene_version_);
+  return reply;
+}
+
+v1::Reply ControlService::OpenSession(const v1::OpenSession& open) {
+  Vector3 start_W;
+  double timeout_s = 0;
+  const force::SessionSettings settings = ReadSessionRequest(open, start_W, timeout_s);
+  const int index = sessions_.FindFree();
+  if (index < 0) {
+    throw RequestError(v1::Error::CODE_RESOURCE_EXHAUSTED,
+                       fmt::format("all {} session slots are in use", sessions_.capacity()));
+  }
+  // A random id nobody else holds (0 is never an id: the wire's default).
+  uint32_t id = 0;
+  while (id == 0 || sessions_.FindById(id) >= 0) id = randombytes_random();
+
+  // Fill the free slot, then hand it to the realtime thread with one release store.
+  SessionSlot& slot = sessions_.slot(index);
+  slot.id = id;
+  slot.key = MakeSessionKey();
+  slot.period_ns = static_cast<int64_t>(std::llround(1e9 / settings.device.rate_hz));
+  slot.timeout_ns = static_cast<int64_t>(std::llround(timeout_s * 1e9));
+  slot.render.emplace(settings);
+  slot.render->Reset(start_W);
+  slot.replay.Reset();
+  slot.peer_size = 0;
+  slot.opened_ns = MonotonicNowNs();
+  slot.last_state_ns = slot.opened_ns;
+  slot.next_silent_tick_ns = slot.opened_ns;
+  slot.last_input = force::DeviceInput{};
+  slot.last_input.p_WD = start_W;
+  slot.ramp_done = false;
+  slot.telemetry = SessionTelemetrySample{};
+  slot.telemetry.state = SlotState::kWaiting;
+  slot.telemetry.p_WD = start_W;
+  slot.telemetry.avatar_W = start_W;
+  slot.published.Write(slot.telemetry);
+  slot.close_requested.store(false, std::memory_order_relaxed);
+  slot.state.store(SlotState::kWaiting, std::memory_order_release);
+  ++sessions_opened_;
+  Log(LogLevel::kInfo, "session {} opened: {} {} avatar, {}, {} Hz, max force {} N", SessionName(id),
+      force::DeviceModeName(settings.device.mode), force::AvatarTypeName(settings.avatar.type),
+      force::ForceMethodName(settings.avatar.method), settings.device.rate_hz, settings.device.max_force);
+
+  v1::Reply reply;
+  v1::SessionOpened* opened = reply.mutable_session_opened();
+  opened->set_session_id(id);
+  opened->set_session_key(std::string(slot.key.begin(), slot.key.end()));
+  opened->set_udp_endpoint(options_.udp_endpoint);
+  opened->set_max_datagram(static_cast<uint32_t>(kMaxDatagramSize));
+  return reply;
+}
+
+v1::Reply ControlService::CloseSession(const v1::CloseSession& close) {
+  const int index = sessions_.FindById(close.session_id());
+  if (index < 0 || !IsLive(sessions_.slot(index).state.load(std::memory_order_acquire))) {
+    throw RequestError(v1::Error::CODE_NOT_FOUND,
+                       fmt::format("close_session.session_id is {}; no open session has that id",
+                                   SessionName(close.session_id())));
+  }
+  sessions_.slot(index).close_requested.store(true, std::memory_order_release);
+  return Done();
+}
+
+void ControlService::ReclaimSessions() {
+  const int64_t now_ns = MonotonicNowNs();
+  for (int i = 0; i < sessions_.capacity(); ++i) {
+    SessionSlot& slot = sessions_.slot(i);
+    const SlotState state = slot.state.load(std::memory_order_acquire);
+    if (state != SlotState::kClosed && state != SlotState::kTimedOut) continue;
+    const SessionTelemetrySample last = slot.published.Read();
+    if (state == SlotState::kClosed) {
+      ++sessions_closed_;
+      Log(LogLevel::kInfo, "session {} closed after {} states", SessionName(slot.id), last.states_received);
+    } else {
+      Log(LogLevel::kWarning, "session {} timed out: no state for {} s; its force was ramped to zero",
+          SessionName(slot.id), static_cast<double>(slot.timeout_ns) * 1e-9);
+    }
+    // Report drops the realtime thread could only count.
+    if (last.bad_tag || last.replayed || last.reordered || last.render.nonfinite_inputs) {
+      Log(LogLevel::kInfo, "session {} dropped {} bad-tag, {} replayed, {} reordered states; {} non-finite",
+          SessionName(slot.id), last.bad_tag, last.replayed, last.reordered, last.render.nonfinite_inputs);
+    }
+    ended_.push_back({slot.id, now_ns, last});
+    slot.state.store(SlotState::kFree, std::memory_order_release);
+  }
+  while (!ended_.empty() && now_ns - ended_.front().ended_ns > kEndedVisibleNs) ended_.pop_front();
+}
+
+v1::Reply ControlService::RayCast(const v1::RayCast& ray) {
+  const Vector3 origin = ReadVector(ray.origin(), "ray_cast.origin");
+  const Vector3 direction = ReadVector(ray.direction(), "ray_cast.direction");
+  if (!(direction.norm() > 0)) throw BadRequest("ray_cast.direction is zero; it needs a direction");
+  const double length = ray.max_distance();
+  if (!(std::isfinite(length) && length > 0)) {
+    throw BadRequest(fmt::format("ray_cast.max_distance is {}; it must be a finite number > 0", length));
+  }
+  const auto snapshot = publisher_.current();
+  const Vector3 end = origin + direction.normalized() * length;
+  const force::SceneSweep sweep = force::SweepSphereScene(*snapshot, origin, end, 0);
+  v1::Reply reply;
+  v1::RayHit* hit = reply.mutable_ray_hit();
+  hit->set_hit(sweep.hit);
+  if (sweep.hit) {
+    hit->set_distance(sweep.t * length);
+    WriteVector(sweep.point_W, hit->mutable_point());
+    WriteVector(sweep.normal_W, hit->mutable_normal());
+    hit->set_object(snapshot->object(sweep.object).name);
+  }
+  return reply;
+}
+
+v1::Reply ControlService::ClosestPoint(const v1::ClosestPoint& query) {
+  const Vector3 p_W = ReadVector(query.point(), "closest_point.point");
+  const double max_distance = query.max_distance();
+  if (!(std::isfinite(max_distance) && max_distance > 0)) {
+    throw BadRequest(fmt::format("closest_point.max_distance is {}; it must be a finite number > 0",
+                                 max_distance));
+  }
+  const auto snapshot = publisher_.current();
+  const force::SceneContact contact = force::FindDeepestContact(*snapshot, p_W, 0, max_distance);
+  v1::Reply reply;
+  v1::ClosestPointResult* result = reply.mutable_closest_point();
+  result->set_found(contact.object >= 0);
+  if (contact.object >= 0) {
+    result->set_signed_distance(-contact.depth);
+    WriteVector(contact.point_W, result->mutable_point());
+    WriteVector(contact.normal_W, result->mutable_normal());
+    result->set_object(snapshot->object(contact.object).name);
+  }
+  return reply;
+}
+
+v1::Reply ControlService::FindContacts(const v1::FindContacts& query) {
+  const Vector3 c_W = ReadVector(query.center(), "find_contacts.center");
+  const double r = query.radius();
+  if (!(std::isfinite(r) && r >= 0)) {
+    throw BadRequest(fmt::format("find_contacts.radius is {}; it must be a finite number >= 0", r));
+  }
+  const auto snapshot = publisher_.current();
+  v1::Reply reply;
+  v1::ContactsResult* result = reply.mutable_contacts();
+  for (const auto& object : snapshot->objects()) {
+    // Each object the sphere touches: its nearest surface point, in W.
+    const force::ShapeProbe probe = force::ProbeShape(object.shape, object.X_WB.ToBody(c_W), r);
+    if (!probe.found || probe.signed_distance > r) continue;
+    v1::Contact* contact = result->add_contacts();
+    contact->set_object(object.name);
+    WriteVector(object.X_WB.ToWorld(probe.point_B), contact->mutable_point());
+    WriteVector(object.X_WB.DirectionToWorld(probe.normal_B), contact->mutable_normal());
+    contact->set_depth(r - probe.signed_distance);
+  }
+  return reply;
+}
+
+v1::Reply ControlService::Subscribe(uint64_t id, const v1::Subscribe& subscribe, ConnectionState& connection) {
+  const double rate_hz = subscribe.rate_hz();
+  if (!(std::isfinite(rate_hz) && rate_hz > 0 && rate_hz <= kMaxTelemetryRateHz)) {
+    throw BadRequest(fmt::format("subscribe.rate_hz is {}; it must be in (0, {}]", rate_hz, kMaxTelemetryRateHz));
+  }
+  if (connection.subscriptions.count(id)) {
+    throw RequestError(v1::Error::CODE_ALREADY_EXISTS,
+                       fmt::format("request_id {} already names a subscription on this connection", id));
+  }
+  if (static_cast<int>(connection.subscriptions.size()) >= options_.max_subscriptions_per_connection) {
+    throw RequestError(v1::Error::CODE_RESOURCE_EXHAUSTED,
+                       fmt::format("this connection has {} subscriptions, the most allowed",
+                                   connection.subscriptions.size()));
+  }
+  Subscription subscription{id, rate_hz, {subscribe.session_ids().begin(), subscribe.session_ids().end()}};
+  v1::Reply reply;
+  *reply.mutable_telemetry() = BuildTelemetry(subscription);
+  connection.subscriptions[id] = std::move(subscription);
+  connection.subscriptions_changed = true;
+  return reply;
+}
+
+v1::Telemetry ControlService::BuildTelemetry(const Subscription& subscription) {
+  ReclaimSessions();
+  auto wanted = [&](uint32_t id) {
+    const auto& ids = subscription.session_ids;
+    return ids.empty() || std::find(ids.begin(), ids.end(), id) != ids.end();
+  };
+  v1::Telemetry telemetry;
+  telemetry.set_server_time_ns(static_cast<uint64_t>(MonotonicNowNs()));
+  telemetry.set_scene_version(scene_version_);
+  for (int i = 0; i < sessions_.capacity(); ++i) {
+    SessionSlot& slot = sessions_.slot(i);
+    if (slot.state.load(std::memory_order_acquire) == SlotState::kFree || !wanted(slot.id)) continue;
+    WriteSession(slot.id, slot.published.Read(), telemetry.add_sessions());
+  }
+  for (const EndedSession& ended : ended_) {
+    if (wanted(ended.id)) WriteSession(ended.id, ended.last, telemetry.add_sessions());
+  }
+  WriteCounters(telemetry.mutable_counters());
+  return telemetry;
+}
+
+void ControlService::WriteSession(uint32_t id, const SessionTelemetrySample& sample, v1::SessionTelemetry* out) const {
+  out->set_session_id(id);
+  out->set_state(ToProto(sample.state));
+  WriteVector(sample.f_W, out->mutable_force());
+  WriteVector(sample.p_WD, out->mutable_device_position());
+  WriteVector(sample.avatar_W, out->mutable_avatar());
+  out->set_contact(sample.contact);
+  out->set_rtt_us(sample.rtt_us);
+  out->set_last_sequence(sample.last_sequence);
+  out->set_ticks(sample.render.ticks);
+  out->set_states_received(sample.states_received);
+  out->set_commands_sent(sample.commands_sent);
+  out->set_replayed(sample.replayed);
+  out->set_reordered(sample.reordered);
+  out->set_bad_mac(sample.bad_tag);
+  out->set_nonfinite_inputs(sample.render.nonfinite_inputs);
+  out->set_absurd_inputs(sample.render.absurd_inputs);
+  out->set_force_saturations(sample.render.force_saturations);
+  out->set_watchdog_trips(sample.render.watchdog_trips);
+  out->set_passivity_activations(sample.render.passivity_activations);
+  out->set_tick_us_max(sample.tick_us_max);
+}
+
+void ControlService::WriteCounters(v1::ServerCounters* out) const {
+  out->set_datagrams_received(realtime_.datagrams_received.load());
+  out->set_commands_sent(realtime_.commands_sent.load());
+  out->set_malformed(realtime_.malformed.load());
+  out->set_oversized(realtime_.oversized.load());
+  out->set_unknown_session(realtime_.unknown_session.load());
+  out->set_bad_mac(realtime_.bad_tag.load());
+  out->set_replayed(realtime_.replayed.load());
+  out->set_reordered(realtime_.reordered.load());
+  out->set_send_errors(realtime_.send_errors.load());
+  out->set_sessions_opened(sessions_opened_);
+  out->set_sessions_closed(sessions_closed_);
+  out->set_sessions_timed_out(realtime_.sessions_timed_out.load());
+  out->set_control_errors(control_errors_);
+}
+
+}  // namespace hapticd::net

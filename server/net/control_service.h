@@ -1,0 +1,93 @@
+#pragma once
+// The control channel's requests, served against the scene and the session table
+// (sans-I/O: a parsed Request in, a Reply out; control_server.h moves the bytes).
+// Runs on the control thread only. Scene edits build a new snapshot with the scene
+// builder and publish it; the realtime thread picks it up at its next batch.
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <string>
+#include <vector>
+#include "hapticd/v1/hapticd.pb.h"
+#include "server/net/realtime_channel.h"
+#include "server/net/session_table.h"
+#include "server/scene/scene_builder.h"
+#include "server/scene/snapshot_publisher.h"
+
+namespace hapticd::net {
+
+// A telemetry stream a connection asked for.
+struct Subscription {
+  uint64_t id = 0;  // the Subscribe's request_id
+  double rate_hz = 0;
+  std::vector<uint32_t> session_ids;  // empty: all
+};
+
+// What the service knows about the connection a request came on.
+struct ConnectionState {
+  bool authenticated = false;  // loopback connections start authenticated
+  std::map<uint64_t, Subscription> subscriptions;
+  // Set by Handle when a Subscribe or Unsubscribe changed `subscriptions`.
+  bool subscriptions_changed = false;
+};
+
+struct ServiceOptions {
+  std::string server_name = "hapticd";
+  std::string udp_endpoint;  // "host:port" given to devices
+  std::string access_token;  // required in Hello when a connection is not authenticated
+  int max_subscriptions_per_connection = 16;
+};
+
+class ControlService {
+ public:
+  // The service serves the scene `initial` (published as version 1 by the caller).
+  ControlService(scene::SceneBuilder initial, scene::SnapshotPublisher& publisher, SessionTable& sessions,
+                 const RealtimeCounters& realtime, ServiceOptions options);
+
+  // Serves one request; never throws: any failure is an Error reply naming the problem.
+  v1::Reply Handle(const v1::Request& request, ConnectionState& connection);
+  // An Error reply to a request that could not even be parsed.
+  v1::Reply MakeError(uint64_t request_id, v1::Error::Code code, const std::string& message);
+
+  // A telemetry sample for subscription, now.
+  v1::Telemetry BuildTelemetry(const Subscription& subscription);
+  // Frees the slots of sessions the realtime thread handed back (closed or timed out),
+  // logging each. Call often (each request and from a timer).
+  void ReclaimSessions();
+
+  const ServiceOptions& options() const { return options_; }
+
+ private:
+  v1::Reply Dispatch(const v1::Request& request, ConnectionState& connection);
+  void PublishScene();
+  v1::Reply OpenSession(const v1::OpenSession& open);
+  v1::Reply CloseSession(const v1::CloseSession& close);
+  v1::Reply RayCast(const v1::RayCast& ray);
+  v1::Reply ClosestPoint(const v1::ClosestPoint& query);
+  v1::Reply FindContacts(const v1::FindContacts& query);
+  v1::Reply Subscribe(uint64_t id, const v1::Subscribe& subscribe, ConnectionState& connection);
+  v1::Reply Done();
+  void RequireObject(const std::string& name, const std::string& field) const;
+  void WriteCounters(v1::ServerCounters* out) const;
+  void WriteSession(uint32_t id, const SessionTelemetrySample& sample, v1::SessionTelemetry* out) const;
+
+  scene::SceneBuilder builder_;
+  scene::SnapshotPublisher& publisher_;
+  SessionTable& sessions_;
+  const RealtimeCounters& realtime_;
+  ServiceOptions options_;
+  uint64_t scene_version_ = 1;
+  uint64_t sessions_opened_ = 0;
+  uint64_t sessions_closed_ = 0;
+  uint64_t control_errors_ = 0;
+  // Sessions reclaimed lately, reported in telemetry for a while so no subscriber misses
+  // how a session ended.
+  struct EndedSession {
+    uint32_t id;
+    int64_t ended_ns;
+    SessionTelemetrySample last;
+  };
+  std::deque<EndedSession> ended_;
+};
+
+}  // namespace hapticd::net

@@ -1,0 +1,102 @@
+#pragma once
+// The realtime channel's datagrams (proto/hapticd/v1/hapticd.proto): a DeviceState or
+// DeviceCommand encoded with protobuf, followed by a 16-byte keyed BLAKE2b tag under the
+// session's key.
+//
+// A codec owns one protobuf arena over a fixed buffer, so after construction encoding and
+// decoding allocate nothing: one codec per thread, used on the real-time path. Decoding
+// never throws; a datagram that is too long, does not parse or carries a bad tag yields
+// an error code for the caller to count.
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string_view>
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace hapticd::net {
+
+using Vector3 = Eigen::Vector3d;
+using Quaternion = Eigen::Quaterniond;
+
+inline constexpr std::size_t kMaxDatagramSize = 512;  // bytes, tag included
+inline constexpr std::size_t kTagSize = 16;
+inline constexpr std::size_t kSessionKeySize = 32;
+using SessionKey = std::array<uint8_t, kSessionKeySize>;
+
+// A device's state, as sent at its rate (hapticd.v1.DeviceState). World frame W, SI.
+struct DeviceStateSample {
+  uint32_t session_id = 0;
+  uint64_t sequence = 0;
+  uint64_t send_time_ns = 0;  // device clock
+  Vector3 p_WD = Vector3::Zero();
+  Quaternion q_WD = Quaternion::Identity();
+  Vector3 v_WD = Vector3::Zero();
+  Vector3 w_WD = Vector3::Zero();
+  uint32_t buttons = 0;
+  Vector3 f_sensed_W = Vector3::Zero();  // admittance: the person's force, N
+  Vector3 f_held_W = Vector3::Zero();    // impedance: the force held since the last state
+  uint32_t rtt_us = 0;
+};
+
+// The server's answer (hapticd.v1.DeviceCommand).
+struct DeviceCommandSample {
+  uint32_t session_id = 0;
+  uint64_t sequence = 0;  // the state answered; 0 for a watchdog command
+  uint64_t echo_send_time_ns = 0;
+  uint64_t scene_version = 0;
+  Vector3 f_W = Vector3::Zero();    // impedance: force to render, N
+  Vector3 tau_W = Vector3::Zero();  // impedance: torque, N·m
+  Vector3 p_command_W = Vector3::Zero();  // admittance: where to go
+  Quaternion q_command_W = Quaternion::Identity();
+  Vector3 avatar_W = Vector3::Zero();
+  bool contact = false;
+  uint32_t flags = 0;  // hapticd.v1.CommandFlags
+};
+
+// Why a datagram was dropped.
+enum class DatagramError {
+  kNone,
+  kOversized,  // longer than kMaxDatagramSize
+  kMalformed,  // shorter than a tag, or the message does not parse
+  kBadTag,     // the tag does not match the session key
+  kCount
+};
+
+// "none", "oversized", "malformed", "bad_tag".
+std::string_view DatagramErrorName(DatagramError error);
+
+class DatagramCodec {
+ public:
+  DatagramCodec();
+  ~DatagramCodec();
+  DatagramCodec(const DatagramCodec&) = delete;
+  DatagramCodec& operator=(const DatagramCodec&) = delete;
+
+  // Encode a message and its tag into out; returns the datagram's size, or 0 when it
+  // does not fit in out (or in kMaxDatagramSize). Real-time safe.
+  std::size_t EncodeState(const DeviceStateSample& state, const SessionKey& key, std::span<uint8_t> out);
+  std::size_t EncodeCommand(const DeviceCommandSample& command, const SessionKey& key,
+                            std::span<uint8_t> out);
+
+  // Parse a datagram's message without checking its tag (the session id in it says
+  // which key to check it with: CheckTag). kNone, kOversized or kMalformed; out is
+  // unspecified unless kNone. Real-time safe.
+  DatagramError ParseState(std::span<const uint8_t> datagram, DeviceStateSample& out);
+  DatagramError ParseCommand(std::span<const uint8_t> datagram, DeviceCommandSample& out);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Whether a datagram's last kTagSize bytes are the tag of the rest under key; constant
+// time in the tag. False for datagrams shorter than a tag.
+bool CheckTag(std::span<const uint8_t> datagram, const SessionKey& key);
+
+// A new random session key (libsodium's CSPRNG). Not real-time.
+SessionKey MakeSessionKey();
+
+}  // namespace hapticd::net

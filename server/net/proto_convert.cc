@@ -1,0 +1,267 @@
+#include "server/net/proto_convert.h"
+
+#include <cmath>
+
+#include <fmt/format.h>
+#include <google/protobuf/unknown_field_set.h>
+
+#include "server/net/request_error.h"
+#include "server/scene/shape.h"
+
+namespace hapticd::net {
+namespace {
+
+using geometry::Vector3;
+
+// Longest a session may stay silent before it is reclaimed, and the default.
+constexpr double kMaxTimeoutS = 3600;
+constexpr double kDefaultTimeoutS = 2;
+constexpr double kMaxRateHz = 10'000;
+
+double RequirePositive(double value, const std::string& field) {
+  if (!(std::isfinite(value) && value > 0)) {
+    throw BadRequest(fmt::format("{} is {}; it must be a finite number > 0", field, value));
+  }
+  return value;
+}
+
+std::vector<Vector3> ReadPoints(const google::protobuf::RepeatedField<double>& flat,
+                                const std::string& field) {
+  if (flat.size() % 3 != 0) {
+    throw BadRequest(fmt::format("{} has {} values; it needs x, y, z for each point (a multiple of 3)",
+                                 field, flat.size()));
+  }
+  std::vector<Vector3> points(flat.size() / 3);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    points[i] = {flat[3 * i], flat[3 * i + 1], flat[3 * i + 2]};
+  }
+  return points;
+}
+
+scene::Representation ReadRepresentation(v1::Representation representation) {
+  switch (representation) {
+    case v1::REPRESENTATION_SPHERE: return scene::Representation::kSphere;
+    case v1::REPRESENTATION_BOX: return scene::Representation::kBox;
+    case v1::REPRESENTATION_CAPSULE: return scene::Representation::kCapsule;
+    case v1::REPRESENTATION_CONVEX: return scene::Representation::kConvex;
+    case v1::REPRESENTATION_MESH: return scene::Representation::kMesh;
+    default: return scene::Representation::kAuto;
+  }
+}
+
+scene::MeshSpec ReadMesh(const v1::Mesh& mesh, const std::string& field) {
+  scene::MeshSpec spec;
+  spec.vertices = ReadPoints(mesh.vertices(), field + ".vertices");
+  const auto& indices = mesh.triangles();
+  if (indices.size() % 3 != 0) {
+    throw BadRequest(fmt::format("{}.triangles has {} values; it needs 3 vertex indices per triangle",
+                                 field, indices.size()));
+  }
+  spec.triangles.resize(indices.size() / 3);
+  for (int i = 0; i < indices.size(); ++i) {
+    if (indices[i] >= spec.vertices.size()) {
+      throw BadRequest(fmt::format("{}.triangles[{}] is {}; the mesh has {} vertices", field, i,
+                                   indices[i], spec.vertices.size()));
+    }
+    spec.triangles[i / 3][i % 3] = static_cast<int>(indices[i]);
+  }
+  spec.pin = ReadRepresentation(mesh.representation());
+  return spec;
+}
+
+scene::ShapeSpec ReadShape(const v1::Shape& shape, const std::string& field) {
+  switch (shape.kind_case()) {
+    case v1::Shape::kSphere:
+      return scene::SphereShape{shape.sphere().radius()};
+    case v1::Shape::kBox:
+      return scene::BoxShape{ReadVector(shape.box().half_extents(), field + ".box.half_extents")};
+    case v1::Shape::kCapsule:
+      return scene::CapsuleShape{shape.capsule().radius(), shape.capsule().half_length()};
+    case v1::Shape::kPlane:
+      return scene::PlaneShape{};
+    case v1::Shape::kConvex:
+      return scene::ConvexSpec{ReadPoints(shape.convex().points(), field + ".convex.points")};
+    case v1::Shape::kMesh:
+      return ReadMesh(shape.mesh(), field + ".mesh");
+    case v1::Shape::KIND_NOT_SET:
+      break;
+  }
+  throw BadRequest(field + " is not set; it must be one of sphere, box, capsule, plane, convex, mesh");
+}
+
+}  // namespace
+
+Vector3 ReadVector(const v1::Vec3& v, const std::string& field) {
+  const Vector3 result(v.x(), v.y(), v.z());
+  if (!result.allFinite()) {
+    throw BadRequest(fmt::format("{} is [{}, {}, {}]; it must be finite", field, v.x(), v.y(), v.z()));
+  }
+  return result;
+}
+
+scene::Pose ReadPose(const v1::Pose& pose, bool present, const std::string& field) {
+  scene::Pose result;
+  if (!present) return result;
+  result.translation = ReadVector(pose.position(), field + ".position");
+  if (pose.has_orientation()) {
+    const v1::Quat& q = pose.orientation();
+    const double norm = std::sqrt(q.w() * q.w() + q.x() * q.x() + q.y() * q.y() + q.z() * q.z());
+    if (!(std::abs(norm - 1) <= 1e-6)) {
+      throw BadRequest(fmt::format("{}.orientation is [{}, {}, {}, {}] (w, x, y, z) with norm {}; "
+                                   "it must be a unit quaternion",
+                                   field, q.w(), q.x(), q.y(), q.z(), norm));
+    }
+    result.rotation = Eigen::Quaterniond(q.w(), q.x(), q.y(), q.z()).normalized().toRotationMatrix();
+  }
+  return result;
+}
+
+scene::Material ReadMaterial(const v1::Material& material, const std::string& field) {
+  scene::Material result;
+  result.stiffness = material.stiffness();
+  result.damping = material.damping();
+  result.static_friction = material.static_friction();
+  result.dynamic_friction = material.dynamic_friction();
+  result.force_shading = material.has_force_shading() ? material.force_shading() : true;
+  if (auto error = scene::ValidateMaterial(result, field)) throw BadRequest(*error);
+  return result;
+}
+
+scene::ObjectSpec ReadObject(const v1::Object& object, const std::string& field) {
+  scene::ObjectSpec spec;
+  if (object.name().empty()) throw BadRequest(field + ".name is empty; every object needs a name");
+  spec.name = object.name();
+  if (!object.has_shape()) throw BadRequest(field + ".shape is missing");
+  spec.shape = ReadShape(object.shape(), field + ".shape");
+  spec.X_WB = ReadPose(object.pose(), object.has_pose(), field + ".pose");
+  if (!object.has_material()) {
+    throw BadRequest(field + ".material is missing; an object needs at least a stiffness");
+  }
+  spec.material = ReadMaterial(object.material(), field + ".material");
+  spec.motion = object.kinematic() ? scene::Motion::kKinematic : scene::Motion::kStatic;
+  spec.v_WB = ReadVector(object.velocity(), field + ".velocity");
+  spec.w_WB = ReadVector(object.angular_velocity(), field + ".angular_velocity");
+  if (!object.kinematic() && (!spec.v_WB.isZero(0) || !spec.w_WB.isZero(0))) {
+    throw BadRequest(field + " is static but has a velocity; set kinematic to move it");
+  }
+  return spec;
+}
+
+force::SessionSettings ReadSessionRequest(const v1::OpenSession& open, Vector3& start_W,
+                                          double& timeout_s) {
+  const std::string field = "open_session";
+  force::SessionSettings settings;
+  switch (open.device_type()) {
+    case v1::DEVICE_TYPE_IMPEDANCE: settings.device.mode = force::DeviceMode::kImpedance; break;
+    case v1::DEVICE_TYPE_ADMITTANCE: settings.device.mode = force::DeviceMode::kAdmittance; break;
+    default:
+      throw BadRequest(fmt::format("{}.device_type is {}; it must be impedance or admittance", field,
+                                   v1::DeviceType_Name(open.device_type())));
+  }
+  if (open.degrees_of_freedom() != 3 && open.degrees_of_freedom() != 6) {
+    throw BadRequest(fmt::format("{}.degrees_of_freedom is {}; hapticd renders 3 or 6", field,
+                                 open.degrees_of_freedom()));
+  }
+  settings.device.max_force = RequirePositive(open.max_force(), field + ".max_force");
+  settings.device.max_velocity = RequirePositive(open.max_velocity(), field + ".max_velocity");
+  settings.device.rate_hz = RequirePositive(open.rate_hz(), field + ".rate_hz");
+  if (settings.device.rate_hz > kMaxRateHz) {
+    throw BadRequest(fmt::format("{}.rate_hz is {}; at most {} is served", field, open.rate_hz(), kMaxRateHz));
+  }
+  settings.device.max_force_rate = open.max_force_rate() == 0
+                                       ? std::numeric_limits<double>::infinity()
+                                       : RequirePositive(open.max_force_rate(), field + ".max_force_rate");
+
+  // The avatar, and the method its type calls for unless one is named.
+  const bool sphere = open.avatar() == v1::AVATAR_TYPE_SPHERE;
+  settings.avatar.type = sphere ? force::AvatarType::kSphere : force::AvatarType::kPoint;
+  settings.avatar.radius = open.avatar_radius();
+  settings.avatar.force_shading = open.force_shading();
+  switch (open.method()) {
+    case v1::FORCE_METHOD_PENALTY: settings.avatar.method = force::ForceMethod::kPenalty; break;
+    case v1::FORCE_METHOD_GOD_OBJECT: settings.avatar.method = force::ForceMethod::kGodObject; break;
+    case v1::FORCE_METHOD_FINGER_PROXY: settings.avatar.method = force::ForceMethod::kFingerProxy; break;
+    default:
+      settings.avatar.method = sphere ? force::ForceMethod::kFingerProxy : force::ForceMethod::kGodObject;
+  }
+  if (open.virtual_mass() != 0) settings.admittance.virtual_mass = open.virtual_mass();
+  if (open.virtual_damping() != 0) settings.admittance.virtual_damping = open.virtual_damping();
+  settings.control.passivity = open.passivity();
+  if (auto error = force::ValidateSessionSettings(settings)) throw BadRequest(field + "." + *error);
+
+  start_W = ReadVector(open.start(), field + ".start");
+  timeout_s = open.timeout_s() == 0 ? kDefaultTimeoutS : open.timeout_s();
+  const double min_timeout_s = settings.control.watchdog_timeout_s + settings.control.watchdog_ramp_s;
+  if (!(timeout_s >= min_timeout_s && timeout_s <= kMaxTimeoutS)) {
+    throw BadRequest(fmt::format("{}.timeout_s is {}; it must be in [{}, {}] (the watchdog's ramp must "
+                                 "end first)",
+                                 field, open.timeout_s(), min_timeout_s, kMaxTimeoutS));
+  }
+  return settings;
+}
+
+void WriteVector(const Vector3& v, v1::Vec3* out) {
+  out->set_x(v.x());
+  out->set_y(v.y());
+  out->set_z(v.z());
+}
+
+void WritePose(const scene::Pose& pose, v1::Pose* out) {
+  WriteVector(pose.translation, out->mutable_position());
+  const Eigen::Quaterniond q(pose.rotation);
+  v1::Quat* orientation = out->mutable_orientation();
+  orientation->set_w(q.w());
+  orientation->set_x(q.x());
+  orientation->set_y(q.y());
+  orientation->set_z(q.z());
+}
+
+void WriteMaterial(const scene::Material& material, v1::Material* out) {
+  out->set_stiffness(material.stiffness);
+  out->set_damping(material.damping);
+  out->set_static_friction(material.static_friction);
+  out->set_dynamic_friction(material.dynamic_friction);
+  out->set_force_shading(material.force_shading);
+}
+
+void WriteObjectInfo(const scene::SceneObject& object, v1::ObjectInfo* out) {
+  const scene::ShapeType stored = scene::TypeOf(object.shape);
+  const bool was_mesh = object.representation.chosen != scene::Representation::kAuto;
+  out->set_name(object.name);
+  out->set_shape(std::string(scene::ShapeTypeName(was_mesh ? scene::ShapeType::kMesh : stored)));
+  out->set_representation(std::string(scene::ShapeTypeName(stored)));
+  out->set_representation_error(object.representation.error_bound);
+  WriteVector(object.bounds_W.min, out->mutable_bounds_min());
+  WriteVector(object.bounds_W.max, out->mutable_bounds_max());
+  WritePose(object.X_WB, out->mutable_pose());
+  WriteMaterial(object.material, out->mutable_material());
+  out->set_kinematic(object.motion == scene::Motion::kKinematic);
+  if (const auto* mesh = std::get_if<scene::MeshShape>(&object.shape)) {
+    out->set_triangles(static_cast<uint32_t>(mesh->bvh->mesh().num_triangles()));
+  }
+}
+
+std::string FindUnknownField(const google::protobuf::Message& message, const std::string& path) {
+  const google::protobuf::Reflection* reflection = message.GetReflection();
+  const google::protobuf::UnknownFieldSet& unknown = reflection->GetUnknownFields(message);
+  if (!unknown.empty()) return fmt::format("{} field number {}", path, unknown.field(0).number());
+  std::vector<const google::protobuf::FieldDescriptor*> fields;
+  reflection->ListFields(message, &fields);
+  for (const auto* field : fields) {
+    if (field->cpp_type() != google::protobuf::FieldDescriptor::CPPTYPE_MESSAGE) continue;
+    const std::string child_path = path + "." + field->name();
+    if (field->is_repeated()) {
+      for (int i = 0; i < reflection->FieldSize(message, field); ++i) {
+        auto found = FindUnknownField(reflection->GetRepeatedMessage(message, field, i),
+                                      fmt::format("{}[{}]", child_path, i));
+        if (!found.empty()) return found;
+      }
+    } else {
+      auto found = FindUnknownField(reflection->GetMessage(message, field), child_path);
+      if (!found.empty()) return found;
+    }
+  }
+  return "";
+}
+
+}  // namespace hapticd::net

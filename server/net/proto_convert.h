@@ -1,0 +1,34 @@
+#pragma once
+// Between the control channel's messages and the scene's and force code's own types.
+// Reading validates what the message format cannot express (a shape must be set,
+// flat arrays must hold whole points, quaternions must be unit) and throws RequestError
+// naming the field by its path in the request ("add_object.object.shape.mesh.triangles
+// has 7 values; it needs a multiple of 3"); the scene builder and the session settings
+// check the rest.
+#include <string>
+#include "hapticd/v1/hapticd.pb.h"
+#include "server/force/session_settings.h"
+#include "server/scene/scene_builder.h"
+
+namespace hapticd::net {
+
+geometry::Vector3 ReadVector(const v1::Vec3& v, const std::string& field);
+scene::Pose ReadPose(const v1::Pose& pose, bool present, const std::string& field);
+scene::Material ReadMaterial(const v1::Material& material, const std::string& field);
+scene::ObjectSpec ReadObject(const v1::Object& object, const std::string& field);
+
+// The session settings an OpenSession asks for, validated; start_W receives the
+// avatar's starting point and timeout_s the session's timeout.
+force::SessionSettings ReadSessionRequest(const v1::OpenSession& open, geometry::Vector3& start_W,
+                                          double& timeout_s);
+
+void WriteVector(const geometry::Vector3& v, v1::Vec3* out);
+void WritePose(const scene::Pose& pose, v1::Pose* out);
+void WriteMaterial(const scene::Material& material, v1::Material* out);
+void WriteObjectInfo(const scene::SceneObject& object, v1::ObjectInfo* out);
+
+// The path of the first field in message (or below) that hapticd.v1 does not define,
+// or "" when there is none: requests with unknown fields are refused, not half-read.
+std::string FindUnknownField(const google::protobuf::Message& message, const std::string& path);
+
+}  // namespace hapticd::net

@@ -1,0 +1,318 @@
+#include "server/net/realtime_channel.h"
+
+#include <poll.h>
+#include <pthread.h>
+#include <sched.h>
+#include <sys/socket.h>
+#include <time.h>
+
+#include <array>
+#include <cstring>
+#include <system_error>
+
+#include <asio/io_context.hpp>
+
+#include "hapticd/v1/hapticd.pb.h"
+
+namespace hapticd::net {
+namespace {
+
+constexpr int64_t kTickNs = 1'000'000;  // silent sessions are looked at every millisecond
+constexpr int kSocketBufferBytes = 4 << 20;
+
+double NsToSeconds(int64_t ns) { return static_cast<double>(ns) * 1e-9; }
+
+}  // namespace
+
+int64_t MonotonicNowNs() {
+  timespec now;
+  clock_gettime(CLOCK_MONOTONIC, &now);
+  return int64_t{now.tv_sec} * 1'000'000'000 + now.tv_nsec;
+}
+
+struct RealtimeChannel::Batch {
+  // One byte more than a datagram may have, so an oversized one is seen as such.
+  std::array<std::array<uint8_t, kMaxDatagramSize + 1>, kBatch> in_data;
+  std::array<iovec, kBatch> in_iov;
+  std::array<sockaddr_storage, kBatch> in_peer;
+  std::array<mmsghdr, kBatch> in_msgs;
+  // Commands to send; at most one per received datagram plus one per silent session.
+  std::vector<std::array<uint8_t, kMaxDatagramSize>> out_data;
+  std::vector<iovec> out_iov;
+  std::vector<mmsghdr> out_msgs;
+};
+
+RealtimeChannel::RealtimeChannel(const asio::ip::udp::endpoint& endpoint, SessionTable& sessions,
+                                 scene::SnapshotPublisher& publisher)
+    : sessions_(sessions), publisher_(publisher), batch_(std::make_unique<Batch>()) {
+  // The socket is opened and bound through asio (addresses, errors), then driven with
+  // recvmmsg/sendmmsg on its descriptor.
+  asio::io_context context;
+  asio::ip::udp::socket socket(context);
+  socket.open(endpoint.protocol());
+  socket.bind(endpoint);
+  local_endpoint_ = socket.local_endpoint();
+  socket.non_blocking(true);
+  socket.set_option(asio::socket_base::receive_buffer_size(kSocketBufferBytes));
+  socket.set_option(asio::socket_base::send_buffer_size(kSocketBufferBytes));
+  fd_ = socket.release();
+
+  reader_ = publisher_.AddReader();
+  if (reader_ < 0) throw std::runtime_error("no snapshot reader slot left for the realtime thread");
+
+  // Preallocate every buffer the thread will use.
+  Batch& b = *batch_;
+  for (int i = 0; i < kBatch; ++i) {
+    b.in_iov[i] = {b.in_data[i].data(), b.in_data[i].size()};
+    b.in_msgs[i] = {};
+    b.in_msgs[i].msg_hdr.msg_iov = &b.in_iov[i];
+    b.in_msgs[i].msg_hdr.msg_iovlen = 1;
+  }
+  const int out_capacity = kBatch + sessions_.capacity();
+  b.out_data.resize(out_capacity);
+  b.out_iov.resize(out_capacity);
+  b.out_msgs.resize(out_capacity);
+}
+
+RealtimeChannel::~RealtimeChannel() {
+  Stop();
+  publisher_.RemoveReader(reader_);
+  ::close(fd_);
+}
+
+bool RealtimeChannel::Start(int priority) {
+  if (thread_.joinable()) return true;
+  stop_.store(false);
+  thread_ = std::thread([this] { Run(); });
+  // SCHED_FIFO keeps the tick ahead of scene building and everything else on the
+  // machine; it needs CAP_SYS_NICE, and the channel works without it.
+  if (priority <= 0) return false;
+  sched_param parameters{};
+  parameters.sched_priority = priority;
+  return pthread_setschedparam(thread_.native_handle(), SCHED_FIFO, &parameters) == 0;
+}
+
+void RealtimeChannel::Stop() {
+  stop_.store(true);
+  if (thread_.joinable()) thread_.join();
+}
+
+void RealtimeChannel::Run() {
+  int64_t next_tick_ns = MonotonicNowNs() + kTickNs;
+  pollfd waiter{fd_, POLLIN, 0};
+  while (!stop_.load(std::memory_order_relaxed)) {
+    // Wait for datagrams, at most until the next millisecond's silent-session pass.
+    const int64_t wait_ns = std::clamp<int64_t>(next_tick_ns - MonotonicNowNs(), 0, kTickNs);
+    const timespec timeout{0, static_cast<long>(wait_ns)};
+    waiter.revents = 0;
+    if (ppoll(&waiter, 1, &timeout, nullptr) > 0) ReceiveAndReply(MonotonicNowNs());
+
+    const int64_t now_ns = MonotonicNowNs();
+    if (now_ns >= next_tick_ns) {
+      TickSilentSessions(now_ns);
+      // After a stall, resume from now rather than replay the missed milliseconds.
+      next_tick_ns = std::max(next_tick_ns + kTickNs, now_ns + kTickNs / 2);
+    }
+  }
+}
+
+void RealtimeChannel::ReceiveAndReply(int64_t now_ns) {
+  Batch& b = *batch_;
+  for (int i = 0; i < kBatch; ++i) {
+    b.in_msgs[i].msg_hdr.msg_name = &b.in_peer[i];
+    b.in_msgs[i].msg_hdr.msg_namelen = sizeof(sockaddr_storage);
+    b.in_msgs[i].msg_hdr.msg_flags = 0;
+  }
+  const int received = recvmmsg(fd_, b.in_msgs.data(), kBatch, MSG_DONTWAIT, nullptr);
+  if (received <= 0) return;
+  counters_.datagrams_received.fetch_add(received, std::memory_order_relaxed);
+
+  // One snapshot for the whole batch: every tick in it sees the same scene.
+  const scene::SceneSnapshot& scene = publisher_.Acquire(reader_);
+  int replies = 0;
+  for (int i = 0; i < received; ++i) {
+    if (HandleDatagram(i, replies, now_ns, scene)) ++replies;
+  }
+  publisher_.Release(reader_);
+  SendReplies(replies);
+}
+
+bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
+                                     const scene::SceneSnapshot& scene) {
+  Batch& b = *batch_;
+  const mmsghdr& message = b.in_msgs[index];
+  const std::span<const uint8_t> datagram(b.in_data[index].data(), message.msg_len);
+
+  // Size, then the message, then whose it is, then its tag, then its freshness.
+  if ((message.msg_hdr.msg_flags & MSG_TRUNC) || datagram.size() > kMaxDatagramSize) {
+    counters_.oversized.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  DeviceStateSample state;
+  if (codec_.ParseState(datagram, state) != DatagramError::kNone) {
+    counters_.malformed.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  const int slot_index = sessions_.FindLive(state.session_id);
+  if (slot_index < 0) {
+    counters_.unknown_session.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  SessionSlot& slot = sessions_.slot(slot_index);
+  if (!CheckTag(datagram, slot.key)) {
+    counters_.bad_tag.fetch_add(1, std::memory_order_relaxed);
+    ++slot.telemetry.bad_tag;
+    PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
+    return false;
+  }
+  switch (slot.replay.Check(state.sequence)) {
+    case ReplayVerdict::kReplayed:
+      counters_.replayed.fetch_add(1, std::memory_order_relaxed);
+      ++slot.telemetry.replayed;
+      PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
+      return false;
+    case ReplayVerdict::kReordered:
+      counters_.reordered.fetch_add(1, std::memory_order_relaxed);
+      ++slot.telemetry.reordered;
+      PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
+      return false;
+    case ReplayVerdict::kFresh:
+      break;
+  }
+
+  // A fresh, authentic state: it names where the device is now.
+  std::memcpy(&slot.peer, &b.in_peer[index], message.msg_hdr.msg_namelen);
+  slot.peer_size = message.msg_hdr.msg_namelen;
+  slot.last_state_ns = now_ns;
+  slot.next_silent_tick_ns = now_ns + slot.period_ns + slot.period_ns / 2;
+  slot.ramp_done = false;
+  slot.state.store(SlotState::kActive, std::memory_order_release);
+
+  force::DeviceInput& input = slot.last_input;
+  input.fresh = true;
+  input.p_WD = state.p_WD;
+  input.v_WD = state.v_WD;
+  input.f_held_W = state.f_held_W;
+  input.f_sensed_W = state.f_sensed_W;
+  const int64_t tick_start_ns = MonotonicNowNs();
+  const force::TickOutput output = slot.render->Tick(scene, input, NsToSeconds(slot.period_ns));
+  const double tick_us = static_cast<double>(MonotonicNowNs() - tick_start_ns) * 1e-3;
+
+  SessionTelemetrySample& telemetry = slot.telemetry;
+  telemetry.rtt_us = state.rtt_us;
+  telemetry.last_sequence = state.sequence;
+  ++telemetry.states_received;
+  telemetry.tick_us_max = std::max(telemetry.tick_us_max, tick_us);
+  const bool queued = QueueCommand(slot, output, state.sequence, state.send_time_ns, scene.version(),
+                                   v1::COMMAND_FLAGS_NONE, reply);
+  PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
+  return queued;
+}
+
+void RealtimeChannel::TickSilentSessions(int64_t now_ns) {
+  int replies = 0;
+  const scene::SceneSnapshot& scene = publisher_.Acquire(reader_);
+  for (int i = 0; i < sessions_.capacity(); ++i) {
+    SessionSlot& slot = sessions_.slot(i);
+    const SlotState state = slot.state.load(std::memory_order_acquire);
+    if (!IsLive(state)) continue;
+
+    // Closed by the control thread: hand the slot back.
+    if (slot.close_requested.load(std::memory_order_acquire)) {
+      PublishTelemetry(slot, SlotState::kClosed);
+      slot.state.store(SlotState::kClosed, std::memory_order_release);
+      continue;
+    }
+    // Silent for the whole timeout (or never heard from): reclaimed.
+    const int64_t last_ns = state == SlotState::kWaiting ? slot.opened_ns : slot.last_state_ns;
+    if (now_ns - last_ns >= slot.timeout_ns) {
+      counters_.sessions_timed_out.fetch_add(1, std::memory_order_relaxed);
+      PublishTelemetry(slot, SlotState::kTimedOut);
+      slot.state.store(SlotState::kTimedOut, std::memory_order_release);
+      continue;
+    }
+    if (state == SlotState::kWaiting || now_ns < slot.next_silent_tick_ns) continue;
+
+    // A state is late: tick on the last one, so the watchdog counts the silence.
+    slot.next_silent_tick_ns += slot.period_ns;
+    slot.last_input.fresh = false;
+    const force::TickOutput output = slot.render->Tick(scene, slot.last_input, NsToSeconds(slot.period_ns));
+    const auto& control = slot.render->settings().control;
+    const bool watchdog_tripped =
+        NsToSeconds(now_ns - slot.last_state_ns) >= control.watchdog_timeout_s;
+    if (watchdog_tripped && state == SlotState::kActive) {
+      slot.state.store(SlotState::kRamping, std::memory_order_release);
+    }
+    // Once the watchdog ramps, tell the device, until the force is zero (nothing to
+    // tell a device whose last command was already zero).
+    if (watchdog_tripped && !slot.ramp_done) {
+      const bool nothing_to_ramp = output.f_W.isZero(0) && slot.telemetry.f_W.isZero(0);
+      if (!nothing_to_ramp &&
+          QueueCommand(slot, output, 0, 0, scene.version(), v1::COMMAND_FLAGS_WATCHDOG, replies)) {
+        ++replies;
+      }
+      slot.ramp_done = output.f_W.isZero(0);
+    }
+    PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
+  }
+  publisher_.Release(reader_);
+  SendReplies(replies);
+}
+
+bool RealtimeChannel::QueueCommand(SessionSlot& slot, const force::TickOutput& output, uint64_t sequence,
+                                   uint64_t echo_ns, uint64_t scene_version, uint32_t flags, int reply) {
+  DeviceCommandSample command;
+  command.session_id = slot.id;
+  command.sequence = sequence;
+  command.echo_send_time_ns = echo_ns;
+  command.scene_version = scene_version;
+  const bool admittance = slot.render->settings().device.mode == force::DeviceMode::kAdmittance;
+  if (!admittance) command.f_W = output.f_W;
+  command.p_command_W = output.p_command_W;
+  command.avatar_W = output.avatar_W;
+  command.contact = output.contact;
+  command.flags = flags;
+
+  SessionTelemetrySample& telemetry = slot.telemetry;
+  telemetry.f_W = command.f_W;
+  telemetry.p_WD = slot.last_input.p_WD;
+  telemetry.avatar_W = output.avatar_W;
+  telemetry.contact = output.contact;
+  telemetry.touched_object = output.touched_object;
+  telemetry.scene_version = scene_version;
+
+  Batch& b = *batch_;
+  if (reply >= static_cast<int>(b.out_msgs.size()) || slot.peer_size == 0) return false;
+  const std::size_t size = codec_.EncodeCommand(command, slot.key, b.out_data[reply]);
+  if (size == 0) return false;
+  b.out_iov[reply] = {b.out_data[reply].data(), size};
+  b.out_msgs[reply] = {};
+  b.out_msgs[reply].msg_hdr.msg_iov = &b.out_iov[reply];
+  b.out_msgs[reply].msg_hdr.msg_iovlen = 1;
+  b.out_msgs[reply].msg_hdr.msg_name = &slot.peer;
+  b.out_msgs[reply].msg_hdr.msg_namelen = slot.peer_size;
+  ++telemetry.commands_sent;
+  return true;
+}
+
+void RealtimeChannel::SendReplies(int count) {
+  int sent = 0;
+  while (sent < count) {
+    const int n = sendmmsg(fd_, batch_->out_msgs.data() + sent, count - sent, MSG_DONTWAIT);
+    if (n <= 0) {
+      // A full socket buffer or an unreachable peer: those commands are lost, counted.
+      counters_.send_errors.fetch_add(count - sent, std::memory_order_relaxed);
+      return;
+    }
+    counters_.commands_sent.fetch_add(n, std::memory_order_relaxed);
+    sent += n;
+  }
+}
+
+void RealtimeChannel::PublishTelemetry(SessionSlot& slot, SlotState state) {
+  slot.telemetry.state = state;
+  slot.telemetry.render = slot.render->counters();
+  slot.published.Write(slot.telemetry);
+}
+
+}  // namespace hapticd::net

@@ -1,0 +1,93 @@
+#pragma once
+// The realtime channel: one UDP socket and the thread that renders every session.
+//
+// Theory of operation. The thread waits (ppoll) for datagrams or the next millisecond,
+// whichever comes first, then:
+//   1. receives every queued datagram in one recvmmsg batch;
+//   2. for each: size -> parse -> session lookup -> tag -> replay window; a datagram that
+//      fails a step is counted under that step's name and dropped; a good one is
+//      rendered at once (RenderSession::Tick on the current snapshot) and its command
+//      joins the reply batch;
+//   3. sends the replies in one sendmmsg;
+//   4. each millisecond, ticks sessions whose states stopped: the watchdog ramps their
+//      force down (sent to the last address, flagged), and a session silent for its
+//      timeout is handed back to the control thread as kTimedOut.
+// Everything it touches is preallocated when the channel or the session is created: it
+// allocates nothing, throws nothing, logs nothing and shares no lock (session_table.h,
+// snapshot_publisher.h).
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <thread>
+#include <asio/ip/udp.hpp>
+#include "server/net/session_table.h"
+#include "server/scene/snapshot_publisher.h"
+
+namespace hapticd::net {
+
+// Datagrams counted by why they were dropped, and what was sent. Written by the
+// realtime thread only.
+struct RealtimeCounters {
+  std::atomic<uint64_t> datagrams_received{0};
+  std::atomic<uint64_t> commands_sent{0};
+  std::atomic<uint64_t> malformed{0};
+  std::atomic<uint64_t> oversized{0};
+  std::atomic<uint64_t> unknown_session{0};
+  std::atomic<uint64_t> bad_tag{0};
+  std::atomic<uint64_t> replayed{0};
+  std::atomic<uint64_t> reordered{0};
+  std::atomic<uint64_t> send_errors{0};
+  std::atomic<uint64_t> sessions_timed_out{0};
+};
+
+// CLOCK_MONOTONIC in ns: the clock of every timestamp the server takes.
+int64_t MonotonicNowNs();
+
+class RealtimeChannel {
+ public:
+  // Binds endpoint (port 0: a free one). Throws std::system_error when it cannot.
+  RealtimeChannel(const asio::ip::udp::endpoint& endpoint, SessionTable& sessions,
+                  scene::SnapshotPublisher& publisher);
+  ~RealtimeChannel();
+  RealtimeChannel(const RealtimeChannel&) = delete;
+  RealtimeChannel& operator=(const RealtimeChannel&) = delete;
+
+  asio::ip::udp::endpoint local_endpoint() const { return local_endpoint_; }
+  const RealtimeCounters& counters() const { return counters_; }
+
+  // Starts the realtime thread, at SCHED_FIFO priority when priority > 0; returns
+  // whether that priority was granted. Stop joins the thread. Both idempotent.
+  bool Start(int priority = 0);
+  void Stop();
+
+ private:
+  static constexpr int kBatch = 64;
+
+  void Run();
+  void ReceiveAndReply(int64_t now_ns);
+  // Renders one datagram; true when a command was queued in slot `reply` of the batch.
+  bool HandleDatagram(int index, int reply, int64_t now_ns, const scene::SceneSnapshot& scene);
+  void TickSilentSessions(int64_t now_ns);
+  // Encodes command into the reply batch at reply for slot's peer; false if it did not fit.
+  bool QueueCommand(SessionSlot& slot, const force::TickOutput& output, uint64_t sequence,
+                    uint64_t echo_ns, uint64_t scene_version, uint32_t flags, int reply);
+  void SendReplies(int count);
+  // Publishes the slot's telemetry as being in state (before the state itself is
+  // handed over, so the control thread reads the final sample).
+  void PublishTelemetry(SessionSlot& slot, SlotState state);
+
+  SessionTable& sessions_;
+  scene::SnapshotPublisher& publisher_;
+  int reader_ = -1;
+  int fd_ = -1;
+  asio::ip::udp::endpoint local_endpoint_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+  RealtimeCounters counters_;
+  DatagramCodec codec_;
+
+  struct Batch;  // the recvmmsg/sendmmsg buffers
+  std::unique_ptr<Batch> batch_;
+};
+
+}  // namespace hapticd::net

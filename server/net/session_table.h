@@ -1,0 +1,124 @@
+#pragma once
+// The realtime sessions, in a fixed table shared by the control thread (which opens,
+// closes and reclaims them) and the realtime thread (which renders them).
+//
+// Theory of operation. Each slot has one atomic state, and each state has one owner,
+// so no lock is ever shared:
+//
+//   control:  kFree --fill slot, Reset session--> kWaiting
+//   realtime: kWaiting --first state--> kActive --silence--> kRamping --state--> kActive
+//             any live state --close_requested--> kClosed
+//             any live state --silence >= timeout--> kTimedOut
+//   control:  kClosed, kTimedOut --read final telemetry--> kFree
+//
+// The control thread fills a free slot and publishes it with a release store; the
+// realtime thread sees it with an acquire load and from then on owns the slot's render
+// state until it hands it back as kClosed or kTimedOut. Telemetry goes the other way
+// through a per-slot seqlock: the realtime thread never waits for a reader.
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <vector>
+#include <netinet/in.h>
+#include "server/force/render_session.h"
+#include "server/net/datagram_codec.h"
+#include "server/net/replay_window.h"
+
+namespace hapticd::net {
+
+enum class SlotState : uint8_t { kFree, kWaiting, kActive, kRamping, kClosed, kTimedOut };
+
+// What a session did, as the realtime thread last published it.
+struct SessionTelemetrySample {
+  SlotState state = SlotState::kFree;
+  Vector3 f_W = Vector3::Zero();
+  Vector3 p_WD = Vector3::Zero();
+  Vector3 avatar_W = Vector3::Zero();
+  bool contact = false;
+  int touched_object = -1;
+  uint64_t scene_version = 0;
+  uint32_t rtt_us = 0;
+  uint64_t last_sequence = 0;
+  uint64_t states_received = 0;
+  uint64_t commands_sent = 0;
+  uint64_t replayed = 0;
+  uint64_t reordered = 0;
+  uint64_t bad_tag = 0;
+  double tick_us_max = 0;  // longest render tick of the session so far
+  force::SessionCounters render;
+};
+
+// A single-writer sequence lock around a trivially copyable value: the writer never
+// waits; a reader retries while a write is in progress.
+template <typename T>
+class SeqLocked {
+ public:
+  void Write(const T& value) {
+    const uint32_t seq = seq_.load(std::memory_order_relaxed);
+    seq_.store(seq + 1, std::memory_order_relaxed);
+    std::atomic_thread_fence(std::memory_order_release);
+    value_ = value;
+    seq_.store(seq + 2, std::memory_order_release);
+  }
+  T Read() const {
+    for (;;) {
+      const uint32_t before = seq_.load(std::memory_order_acquire);
+      T copy = value_;
+      std::atomic_thread_fence(std::memory_order_acquire);
+      if (!(before & 1) && seq_.load(std::memory_order_relaxed) == before) return copy;
+    }
+  }
+
+ private:
+  std::atomic<uint32_t> seq_{0};
+  T value_{};
+};
+
+// One session's slot. The fields above the line are written by the control thread
+// while the slot is kFree and read-only afterwards; those below belong to the realtime
+// thread while the slot is live.
+struct SessionSlot {
+  std::atomic<SlotState> state{SlotState::kFree};
+  std::atomic<bool> close_requested{false};
+
+  uint32_t id = 0;
+  SessionKey key{};
+  int64_t period_ns = 1'000'000;
+  int64_t timeout_ns = 2'000'000'000;
+  std::optional<force::RenderSession> render;
+  // ----
+  ReplayWindow replay;
+  sockaddr_storage peer{};
+  socklen_t peer_size = 0;
+  int64_t opened_ns = 0;
+  int64_t last_state_ns = 0;
+  int64_t next_silent_tick_ns = 0;
+  force::DeviceInput last_input;
+  bool ramp_done = false;  // the watchdog's force reached zero; stop sending
+  SessionTelemetrySample telemetry;  // the realtime thread's working copy
+  SeqLocked<SessionTelemetrySample> published;
+};
+
+class SessionTable {
+ public:
+  explicit SessionTable(int capacity);
+
+  int capacity() const { return static_cast<int>(slots_.size()); }
+  SessionSlot& slot(int i) { return *slots_[i]; }
+
+  // Control thread: the index of a free slot, or -1 when all are in use.
+  int FindFree() const;
+  // Control thread: the slot of a session that is not free, or -1.
+  int FindById(uint32_t id) const;
+  // Realtime thread: the live slot (kWaiting, kActive, kRamping) of id, or -1.
+  int FindLive(uint32_t id) const;
+
+ private:
+  std::vector<std::unique_ptr<SessionSlot>> slots_;
+};
+
+bool IsLive(SlotState state);
+
+}  // namespace hapticd::net

@@ -1,0 +1,259 @@
+// The control service's requests: scene edits, queries, sessions, subscriptions, and the
+// error replies that name what was wrong.
+#include "server/net/control_service.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "server/net/test/net_harness.h"
+
+namespace hapticd::net {
+namespace {
+
+using testing::Harness;
+
+v1::Object MakeSphere(const std::string& name, double radius, double x) {
+  v1::Object object;
+  object.set_name(name);
+  object.mutable_shape()->mutable_sphere()->set_radius(radius);
+  object.mutable_pose()->mutable_position()->set_x(x);
+  object.mutable_material()->set_stiffness(800);
+  return object;
+}
+
+v1::Request Add(const v1::Object& object) {
+  v1::Request request;
+  request.set_request_id(11);
+  *request.mutable_add_object()->mutable_object() = object;
+  return request;
+}
+
+void ExpectError(const v1::Reply& reply, v1::Error::Code code, const std::string& message) {
+  ASSERT_TRUE(reply.has_error()) << reply.DebugString();
+  EXPECT_EQ(reply.error().code(), code) << reply.error().message();
+  EXPECT_EQ(reply.error().message(), message);
+}
+
+TEST(ControlService, EditsPublishNewVersionsAndNameTheirErrors) {
+  Harness harness;
+  v1::Reply added = harness.Call(Add(MakeSphere("ball", 0.1, 1)));
+  ASSERT_TRUE(added.has_done()) << added.DebugString();
+  EXPECT_EQ(added.request_id(), 11u);
+  EXPECT_EQ(added.done().scene_version(), 2u);
+  EXPECT_EQ(harness.publisher.current()->version(), 2u);
+  EXPECT_EQ(harness.publisher.current()->num_objects(), 3);
+
+  ExpectError(harness.Call(Add(MakeSphere("ball", 0.1, 1))), v1::Error::CODE_ALREADY_EXISTS,
+              "add_object.object.name is \"ball\"; an object of that name exists (use update_object to replace it)");
+  ExpectError(harness.Call(Add(MakeSphere("bad", -0.1, 1))), v1::Error::CODE_BAD_REQUEST,
+              "objects[bad].shape.radius is -0.1; it must be a finite number > 0");
+  v1::Request remove;
+  remove.mutable_remove_object()->set_name("cup");
+  ExpectError(harness.Call(remove), v1::Error::CODE_NOT_FOUND,
+              "remove_object.name is \"cup\"; the scene has no object of that name");
+  remove.mutable_remove_object()->set_name("ball");
+  EXPECT_EQ(harness.Call(remove).done().scene_version(), 3u);
+  EXPECT_EQ(harness.publisher.current()->FindObject("ball"), -1);
+  // A refused edit publishes nothing.
+  EXPECT_EQ(harness.publisher.current()->version(), 3u);
+}
+
+TEST(ControlService, MeshesArriveAsFlatArraysAndAreChecked) {
+  Harness harness;
+  v1::Object tetra;
+  tetra.set_name("tetra");
+  tetra.mutable_material()->set_stiffness(1000);
+  v1::Mesh* mesh = tetra.mutable_shape()->mutable_mesh();
+  for (double v : {0., 0., 0., 1., 0., 0., 0., 1., 0., 0., 0., 1.}) mesh->add_vertices(v);
+  for (uint32_t i : {0u, 2u, 1u, 0u, 1u, 3u, 0u, 3u, 2u, 1u, 2u, 3u}) mesh->add_triangles(i);
+  mesh->set_representation(v1::REPRESENTATION_MESH);
+  ASSERT_TRUE(harness.Call(Add(tetra)).has_done());
+  v1::Request get;
+  get.mutable_get_scene();
+  const v1::Reply scene = harness.Call(get);
+  ASSERT_EQ(scene.scene().objects_size(), 3);
+  EXPECT_EQ(scene.scene().objects(2).shape(), "mesh");
+  EXPECT_EQ(scene.scene().objects(2).representation(), "mesh");
+  EXPECT_EQ(scene.scene().objects(2).triangles(), 4u);
+
+  mesh->set_triangles(4, 9);
+  tetra.set_name("tetra2");
+  ExpectError(harness.Call(Add(tetra)), v1::Error::CODE_BAD_REQUEST,
+              "add_object.object.shape.mesh.triangles[4] is 9; the mesh has 4 vertices");
+  mesh->add_vertices(1);
+  ExpectError(harness.Call(Add(tetra)), v1::Error::CODE_BAD_REQUEST,
+              "add_object.object.shape.mesh.vertices has 13 values; it needs x, y, z for each point (a multiple of 3)");
+}
+
+TEST(ControlService, RefusesMalformedObjects) {
+  Harness harness;
+  v1::Object object = MakeSphere("s", 0.1, 0);
+  object.clear_shape();
+  ExpectError(harness.Call(Add(object)), v1::Error::CODE_BAD_REQUEST, "add_object.object.shape is missing");
+  object = MakeSphere("s", 0.1, 0);
+  object.mutable_pose()->mutable_orientation()->set_w(2);
+  const v1::Reply reply = harness.Call(Add(object));
+  ASSERT_TRUE(reply.has_error());
+  EXPECT_EQ(reply.error().message().rfind("add_object.object.pose.orientation is [2, 0, 0, 0] (w, x, y, z) with norm 2;", 0), 0u)
+      << reply.error().message();
+  object = MakeSphere("s", 0.1, 0);
+  object.mutable_pose()->mutable_position()->set_y(NAN);
+  ExpectError(harness.Call(Add(object)), v1::Error::CODE_BAD_REQUEST,
+              "add_object.object.pose.position is [0, nan, 0]; it must be finite");
+  object = MakeSphere("", 0.1, 0);
+  ExpectError(harness.Call(Add(object)), v1::Error::CODE_BAD_REQUEST,
+              "add_object.object.name is empty; every object needs a name");
+}
+
+TEST(ControlService, RefusesUnknownFieldsAndEmptyRequests) {
+  Harness harness;
+  v1::Request request = Add(MakeSphere("s", 0.1, 0));
+  request.mutable_add_object()->mutable_object()->mutable_shape()->mutable_sphere()->GetReflection()
+      ->MutableUnknownFields(request.mutable_add_object()->mutable_object()->mutable_shape()->mutable_sphere())
+      ->AddVarint(99, 1);
+  ExpectError(harness.Call(request), v1::Error::CODE_BAD_REQUEST,
+              "request.add_object.object.shape.sphere field number 99 is not part of hapticd.v1; is the client built "
+              "for another version?");
+  ExpectError(harness.Call(v1::Request()), v1::Error::CODE_BAD_REQUEST,
+              "request has no body: it names none of the requests hapticd.v1 defines");
+}
+
+TEST(ControlService, AnUntrustedConnectionMustHelloWithTheToken) {
+  Harness harness;
+  ConnectionState remote;  // not authenticated
+  v1::Request get;
+  get.mutable_get_scene();
+  ExpectError(harness.service.Handle(get, remote), v1::Error::CODE_UNAUTHENTICATED,
+              "this connection must send a Hello with the server's access token first");
+  v1::Request hello;
+  hello.mutable_hello()->set_protocol_version(1);
+  hello.mutable_hello()->set_access_token("wrong");
+  ExpectError(harness.service.Handle(hello, remote), v1::Error::CODE_UNAUTHENTICATED,
+              "hello.access_token is not this server's token");
+  hello.mutable_hello()->set_protocol_version(2);
+  ExpectError(harness.service.Handle(hello, remote), v1::Error::CODE_BAD_REQUEST,
+              "hello.protocol_version is 2; this server speaks 1");
+  hello.mutable_hello()->set_protocol_version(1);
+  hello.mutable_hello()->set_access_token("0123456789abcdef-token");
+  const v1::Reply welcome = harness.service.Handle(hello, remote);
+  ASSERT_TRUE(welcome.has_hello());
+  EXPECT_EQ(welcome.hello().udp_endpoint(), harness.service.options().udp_endpoint);
+  EXPECT_TRUE(harness.service.Handle(get, remote).has_scene());
+}
+
+TEST(ControlService, QueriesAnswerInTheWorldFrame) {
+  Harness harness;  // 0.1 m cube at the origin, floor at z = -1
+  v1::Request ray;
+  ray.mutable_ray_cast()->mutable_origin()->set_z(1);
+  ray.mutable_ray_cast()->mutable_direction()->set_z(-3);
+  ray.mutable_ray_cast()->set_max_distance(10);
+  const v1::RayHit hit = harness.Call(ray).ray_hit();
+  EXPECT_TRUE(hit.hit());
+  EXPECT_EQ(hit.object(), "box");
+  EXPECT_NEAR(hit.distance(), 0.95, 1e-12);
+  EXPECT_NEAR(hit.point().z(), 0.05, 1e-12);
+  EXPECT_NEAR(hit.normal().z(), 1, 1e-12);
+  ray.mutable_ray_cast()->set_max_distance(0.5);
+  EXPECT_FALSE(harness.Call(ray).ray_hit().hit());
+  ray.mutable_ray_cast()->mutable_direction()->set_z(0);
+  ExpectError(harness.Call(ray), v1::Error::CODE_BAD_REQUEST, "ray_cast.direction is zero; it needs a direction");
+
+  v1::Request closest;
+  closest.mutable_closest_point()->mutable_point()->set_x(0.2);
+  closest.mutable_closest_point()->set_max_distance(1);
+  const v1::ClosestPointResult nearest = harness.Call(closest).closest_point();
+  EXPECT_TRUE(nearest.found());
+  EXPECT_EQ(nearest.object(), "box");
+  EXPECT_NEAR(nearest.signed_distance(), 0.15, 1e-12);
+  EXPECT_NEAR(nearest.point().x(), 0.05, 1e-12);
+  closest.mutable_closest_point()->mutable_point()->set_x(0.02);  // inside
+  EXPECT_NEAR(harness.Call(closest).closest_point().signed_distance(), -0.03, 1e-12);
+
+  v1::Request contacts;
+  contacts.mutable_find_contacts()->mutable_center()->set_z(0.06);
+  contacts.mutable_find_contacts()->set_radius(0.02);
+  const v1::ContactsResult touching = harness.Call(contacts).contacts();
+  ASSERT_EQ(touching.contacts_size(), 1);
+  EXPECT_EQ(touching.contacts(0).object(), "box");
+  EXPECT_NEAR(touching.contacts(0).depth(), 0.01, 1e-12);
+  contacts.mutable_find_contacts()->mutable_center()->set_z(-0.99);
+  EXPECT_EQ(harness.Call(contacts).contacts().contacts(0).object(), "floor");
+  contacts.mutable_find_contacts()->set_radius(-1);
+  ExpectError(harness.Call(contacts), v1::Error::CODE_BAD_REQUEST,
+              "find_contacts.radius is -1; it must be a finite number >= 0");
+}
+
+TEST(ControlService, OpenSessionChecksTheHandshake) {
+  Harness harness;
+  v1::Request request;
+  v1::OpenSession* open = request.mutable_open_session();
+  ExpectError(harness.Call(request), v1::Error::CODE_BAD_REQUEST,
+              "open_session.device_type is DEVICE_TYPE_UNSPECIFIED; it must be impedance or admittance");
+  open->set_device_type(v1::DEVICE_TYPE_IMPEDANCE);
+  open->set_degrees_of_freedom(4);
+  ExpectError(harness.Call(request), v1::Error::CODE_BAD_REQUEST,
+              "open_session.degrees_of_freedom is 4; hapticd renders 3 or 6");
+  open->set_degrees_of_freedom(6);
+  open->set_max_force(NAN);
+  ExpectError(harness.Call(request), v1::Error::CODE_BAD_REQUEST,
+              "open_session.max_force is nan; it must be a finite number > 0");
+  open->set_max_force(10);
+  open->set_max_velocity(1);
+  open->set_rate_hz(20000);
+  ExpectError(harness.Call(request), v1::Error::CODE_BAD_REQUEST,
+              "open_session.rate_hz is 20000; at most 10000 is served");
+  open->set_rate_hz(1000);
+  open->set_avatar(v1::AVATAR_TYPE_SPHERE);
+  const v1::Reply no_radius = harness.Call(request);
+  ASSERT_TRUE(no_radius.has_error());
+  EXPECT_EQ(no_radius.error().message().rfind("open_session.avatar.radius is 0", 0), 0u) << no_radius.error().message();
+  open->set_avatar_radius(0.005);
+  open->set_timeout_s(0.01);
+  const v1::Reply short_timeout = harness.Call(request);
+  ASSERT_TRUE(short_timeout.has_error());
+  EXPECT_EQ(short_timeout.error().message().rfind("open_session.timeout_s is 0.01; it must be in [0.15", 0), 0u)
+      << short_timeout.error().message();
+  open->set_timeout_s(0);
+  const v1::Reply opened = harness.Call(request);
+  ASSERT_TRUE(opened.has_session_opened()) << opened.DebugString();
+  EXPECT_NE(opened.session_opened().session_id(), 0u);
+  EXPECT_EQ(opened.session_opened().session_key().size(), kSessionKeySize);
+  EXPECT_EQ(opened.session_opened().udp_endpoint(), harness.service.options().udp_endpoint);
+  EXPECT_EQ(opened.session_opened().max_datagram(), kMaxDatagramSize);
+  const int slot = harness.sessions.FindById(opened.session_opened().session_id());
+  ASSERT_GE(slot, 0);
+  EXPECT_EQ(harness.sessions.slot(slot).state.load(), SlotState::kWaiting);
+  EXPECT_EQ(harness.sessions.slot(slot).render->settings().avatar.method, force::ForceMethod::kFingerProxy);
+}
+
+TEST(ControlService, SubscriptionsAreCheckedAndListed) {
+  Harness harness;
+  v1::Request subscribe;
+  subscribe.set_request_id(5);
+  subscribe.mutable_subscribe()->set_rate_hz(0);
+  ExpectError(harness.Call(subscribe), v1::Error::CODE_BAD_REQUEST, "subscribe.rate_hz is 0; it must be in (0, 1000]");
+  subscribe.mutable_subscribe()->set_rate_hz(50);
+  const v1::Reply first = harness.Call(subscribe);
+  ASSERT_TRUE(first.has_telemetry());
+  EXPECT_EQ(first.request_id(), 5u);
+  EXPECT_EQ(first.telemetry().scene_version(), 1u);
+  EXPECT_TRUE(harness.connection.subscriptions_changed);
+  ASSERT_EQ(harness.connection.subscriptions.count(5), 1u);
+  EXPECT_EQ(harness.connection.subscriptions[5].rate_hz, 50);
+  ExpectError(harness.Call(subscribe), v1::Error::CODE_ALREADY_EXISTS,
+              "request_id 5 already names a subscription on this connection");
+  v1::Request unsubscribe;
+  unsubscribe.mutable_unsubscribe()->set_subscription_id(6);
+  ExpectError(harness.Call(unsubscribe), v1::Error::CODE_NOT_FOUND,
+              "unsubscribe.subscription_id is 6; this connection has no such subscription");
+  unsubscribe.mutable_unsubscribe()->set_subscription_id(5);
+  EXPECT_TRUE(harness.Call(unsubscribe).has_done());
+  EXPECT_TRUE(harness.connection.subscriptions.empty());
+  v1::Request stats;
+  stats.mutable_get_stats();
+  EXPECT_EQ(harness.Call(stats).stats().counters().control_errors(), 3u);
+}
+
+}  // namespace
+}  // namespace hapticd::net

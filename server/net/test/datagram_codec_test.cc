@@ -1,0 +1,161 @@
+#include "server/net/datagram_codec.h"
+
+#include <atomic>
+#include <cstdlib>
+#include <new>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+// Counts heap allocations in this test program, to show the codec makes none.
+namespace {
+std::atomic<long> g_allocations{0};
+}  // namespace
+
+void* operator new(std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size ? size : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace hapticd::net {
+namespace {
+
+SessionKey TestKey(uint8_t seed) {
+  SessionKey key;
+  for (std::size_t i = 0; i < key.size(); ++i) key[i] = static_cast<uint8_t>(seed + i);
+  return key;
+}
+
+DeviceStateSample MakeState() {
+  DeviceStateSample state;
+  state.session_id = 0xdeadbeef;
+  state.sequence = 1234567890123ull;
+  state.send_time_ns = 42;
+  state.p_WD = {0.1, -0.2, 0.3};
+  state.q_WD = Quaternion(Eigen::AngleAxisd(0.3, Vector3(0, 0, 1)));
+  state.v_WD = {-1e-3, 0, 2};
+  state.w_WD = {0, 0.5, 0};
+  state.buttons = 0b101;
+  state.f_sensed_W = {1, 2, 3};
+  state.f_held_W = {-4, 5, -6};
+  state.rtt_us = 321;
+  return state;
+}
+
+TEST(DatagramCodec, StateRoundTripsExactly) {
+  DatagramCodec codec;
+  const SessionKey key = TestKey(1);
+  const DeviceStateSample state = MakeState();
+  std::array<uint8_t, kMaxDatagramSize> buffer;
+  const std::size_t size = codec.EncodeState(state, key, buffer);
+  ASSERT_GT(size, kTagSize);
+  const std::span<const uint8_t> datagram(buffer.data(), size);
+  EXPECT_TRUE(CheckTag(datagram, key));
+
+  DeviceStateSample back;
+  ASSERT_EQ(codec.ParseState(datagram, back), DatagramError::kNone);
+  EXPECT_EQ(back.session_id, state.session_id);
+  EXPECT_EQ(back.sequence, state.sequence);
+  EXPECT_EQ(back.send_time_ns, state.send_time_ns);
+  EXPECT_EQ(back.p_WD, state.p_WD);
+  EXPECT_EQ(back.q_WD.coeffs(), state.q_WD.coeffs());
+  EXPECT_EQ(back.v_WD, state.v_WD);
+  EXPECT_EQ(back.w_WD, state.w_WD);
+  EXPECT_EQ(back.buttons, state.buttons);
+  EXPECT_EQ(back.f_sensed_W, state.f_sensed_W);
+  EXPECT_EQ(back.f_held_W, state.f_held_W);
+  EXPECT_EQ(back.rtt_us, state.rtt_us);
+}
+
+TEST(DatagramCodec, CommandRoundTripsAndAbsentMeansZeroOrIdentity) {
+  DatagramCodec codec;
+  const SessionKey key = TestKey(9);
+  DeviceCommandSample command;
+  command.session_id = 7;
+  command.sequence = 3;
+  command.f_W = {0, 0, 2.5};
+  command.contact = true;
+  std::array<uint8_t, kMaxDatagramSize> buffer;
+  const std::size_t size = codec.EncodeCommand(command, key, buffer);
+  DeviceCommandSample back;
+  back.tau_W = {9, 9, 9};  // must be overwritten with the absent field's zero
+  ASSERT_EQ(codec.ParseCommand({buffer.data(), size}, back), DatagramError::kNone);
+  EXPECT_EQ(back.f_W, command.f_W);
+  EXPECT_EQ(back.tau_W, Vector3::Zero());
+  EXPECT_TRUE(back.q_command_W.coeffs().isApprox(Quaternion::Identity().coeffs(), 0));
+  EXPECT_TRUE(back.contact);
+  // Zero vectors are not sent: session id, sequence, force and contact only.
+  EXPECT_EQ(size, 5u + 9u + 2u + 9u + 2u + kTagSize);
+}
+
+TEST(DatagramCodec, TagDependsOnKeyAndEveryByte) {
+  DatagramCodec codec;
+  const SessionKey key = TestKey(1);
+  std::array<uint8_t, kMaxDatagramSize> buffer;
+  const std::size_t size = codec.EncodeState(MakeState(), key, buffer);
+  EXPECT_FALSE(CheckTag({buffer.data(), size}, TestKey(2)));
+  for (std::size_t i = 0; i < size; ++i) {
+    buffer[i] ^= 0x01;
+    EXPECT_FALSE(CheckTag({buffer.data(), size}, key)) << "flipped byte " << i;
+    buffer[i] ^= 0x01;
+  }
+  EXPECT_TRUE(CheckTag({buffer.data(), size}, key));
+  EXPECT_FALSE(CheckTag({buffer.data(), kTagSize - 1}, key));
+}
+
+TEST(DatagramCodec, RefusesOversizedShortAndGarbage) {
+  DatagramCodec codec;
+  DeviceStateSample state;
+  std::vector<uint8_t> big(kMaxDatagramSize + 1, 0);
+  EXPECT_EQ(codec.ParseState(big, state), DatagramError::kOversized);
+  EXPECT_EQ(codec.ParseState(std::span<const uint8_t>(big.data(), 3), state), DatagramError::kMalformed);
+  // A length-delimited field claiming more bytes than there are.
+  std::vector<uint8_t> truncated = {0x22, 0x7f, 0x09};
+  truncated.resize(truncated.size() + kTagSize, 0);
+  EXPECT_EQ(codec.ParseState(truncated, state), DatagramError::kMalformed);
+  // Random bytes never crash; whatever parses still fails the tag.
+  std::mt19937_64 random(3);
+  const SessionKey key = TestKey(1);
+  for (int i = 0; i < 20000; ++i) {
+    std::vector<uint8_t> noise(std::uniform_int_distribution<int>(0, kMaxDatagramSize)(random));
+    for (auto& byte : noise) byte = static_cast<uint8_t>(random());
+    const DatagramError error = codec.ParseState(noise, state);
+    EXPECT_TRUE(error == DatagramError::kNone || error == DatagramError::kMalformed);
+    EXPECT_FALSE(CheckTag(noise, key));
+  }
+}
+
+TEST(DatagramCodec, EncodeRefusesABufferTooSmall) {
+  DatagramCodec codec;
+  std::array<uint8_t, 20> small;
+  EXPECT_EQ(codec.EncodeState(MakeState(), TestKey(1), small), 0u);
+}
+
+TEST(DatagramCodec, AllocatesNothingAfterConstruction) {
+  DatagramCodec codec;
+  const SessionKey key = TestKey(1);
+  std::array<uint8_t, kMaxDatagramSize> buffer;
+  DeviceStateSample state;
+  DeviceCommandSample command;
+  command.f_W = {1, 2, 3};
+  const long before = g_allocations.load();
+  for (int i = 0; i < 1000; ++i) {
+    const std::size_t size = codec.EncodeState(MakeState(), key, buffer);
+    ASSERT_EQ(codec.ParseState({buffer.data(), size}, state), DatagramError::kNone);
+    ASSERT_TRUE(CheckTag({buffer.data(), size}, key));
+    const std::size_t command_size = codec.EncodeCommand(command, key, buffer);
+    ASSERT_EQ(codec.ParseCommand({buffer.data(), command_size}, command), DatagramError::kNone);
+  }
+  EXPECT_EQ(g_allocations.load() - before, 0);
+}
+
+TEST(DatagramCodec, SessionKeysAreRandom) {
+  EXPECT_NE(MakeSessionKey(), MakeSessionKey());
+}
+
+}  // namespace
+}  // namespace hapticd::net

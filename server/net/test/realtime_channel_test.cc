@@ -1,0 +1,326 @@
+// The realtime channel over a real loopback UDP socket: what a device gets back, and
+// what the channel drops and counts.
+#include "server/net/realtime_channel.h"
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "server/net/test/net_harness.h"
+
+// Counts heap allocations in this program, to show the realtime path makes none.
+namespace {
+std::atomic<long> g_allocations{0};
+}  // namespace
+
+void* operator new(std::size_t size) {
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size ? size : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace hapticd::net {
+namespace {
+
+using testing::DeviceSocket;
+using testing::Harness;
+
+struct OpenedSession {
+  uint32_t id = 0;
+  SessionKey key{};
+};
+
+OpenedSession Open(Harness& harness, v1::DeviceType type, const Vector3& start, double timeout_s = 0) {
+  v1::Request request;
+  v1::OpenSession* open = request.mutable_open_session();
+  open->set_device_type(type);
+  open->set_degrees_of_freedom(3);
+  open->set_max_force(50);
+  open->set_max_velocity(20);
+  open->set_rate_hz(1000);
+  open->set_timeout_s(timeout_s);
+  open->mutable_start()->set_x(start.x());
+  open->mutable_start()->set_y(start.y());
+  open->mutable_start()->set_z(start.z());
+  const v1::Reply reply = harness.Call(request);
+  EXPECT_TRUE(reply.has_session_opened()) << reply.DebugString();
+  OpenedSession session;
+  session.id = reply.session_opened().session_id();
+  std::copy(reply.session_opened().session_key().begin(), reply.session_opened().session_key().end(),
+            session.key.begin());
+  return session;
+}
+
+class RealtimeChannelTest : public ::testing::Test {
+ protected:
+  void SetUp() override { harness_.realtime.Start(); }
+
+  // Sends one state and returns the command that answers it (nullopt: none in 200 ms).
+  std::optional<DeviceCommandSample> Exchange(DeviceSocket& device, const OpenedSession& session,
+                                              DeviceStateSample state) {
+    state.session_id = session.id;
+    std::array<uint8_t, kMaxDatagramSize> buffer;
+    const std::size_t size = codec_.EncodeState(state, session.key, buffer);
+    device.SendRaw({buffer.data(), size});
+    // The answer, past any watchdog command sent while the device was quiet.
+    for (;;) {
+      const auto bytes = device.Receive(200);
+      if (!bytes) return std::nullopt;
+      DeviceCommandSample command;
+      EXPECT_EQ(codec_.ParseCommand(*bytes, command), DatagramError::kNone);
+      if (command.flags & v1::COMMAND_FLAGS_WATCHDOG) continue;
+      EXPECT_TRUE(CheckTag(*bytes, session.key));
+      return command;
+    }
+  }
+
+  std::optional<DeviceCommandSample> ReceiveCommand(DeviceSocket& device, const OpenedSession& session,
+                                                    int timeout_ms) {
+    const auto bytes = device.Receive(timeout_ms);
+    if (!bytes) return std::nullopt;
+    EXPECT_TRUE(CheckTag(*bytes, session.key));
+    DeviceCommandSample command;
+    EXPECT_EQ(codec_.ParseCommand(*bytes, command), DatagramError::kNone);
+    return command;
+  }
+
+  DeviceStateSample StateAt(uint64_t sequence, const Vector3& p_WD) {
+    DeviceStateSample state;
+    state.sequence = sequence;
+    state.send_time_ns = 1000 + sequence;
+    state.p_WD = p_WD;
+    return state;
+  }
+
+  Harness harness_;
+  DatagramCodec codec_;
+};
+
+TEST_F(RealtimeChannelTest, PressingIntoTheBoxFeelsStiffnessTimesDepth) {
+  const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
+  DeviceSocket device(harness_.realtime.local_endpoint().port());
+  uint64_t sequence = 0;
+  for (double z : {0.08, 0.06, 0.051}) {
+    const auto command = Exchange(device, session, StateAt(++sequence, {0, 0, z}));
+    ASSERT_TRUE(command);
+    EXPECT_FALSE(command->contact);
+    EXPECT_EQ(command->f_W, Vector3::Zero());
+  }
+  // Down through the top face (z = 0.05) by d; F = k d along +z.
+  for (double d : {0.001, 0.005, 0.01}) {
+    const auto command = Exchange(device, session, StateAt(++sequence, {0, 0, 0.05 - d}));
+    ASSERT_TRUE(command);
+    EXPECT_EQ(command->session_id, session.id);
+    EXPECT_EQ(command->sequence, sequence);
+    EXPECT_EQ(command->echo_send_time_ns, 1000 + sequence);
+    EXPECT_EQ(command->scene_version, 1u);
+    EXPECT_TRUE(command->contact);
+    EXPECT_NEAR(command->f_W.z(), 1000 * d, 1e-5);
+    EXPECT_NEAR(command->f_W.head<2>().norm(), 0, 1e-9);
+  }
+  // Published before the command went out, so already visible.
+  const SessionTelemetrySample telemetry =
+      harness_.sessions.slot(harness_.sessions.FindById(session.id)).published.Read();
+  EXPECT_EQ(telemetry.states_received, sequence);
+  EXPECT_EQ(telemetry.commands_sent, sequence);
+}
+
+TEST_F(RealtimeChannelTest, DropsAndCountsWhatIsNotAFreshAuthenticState) {
+  const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
+  DeviceSocket device(harness_.realtime.local_endpoint().port());
+  const RealtimeCounters& counters = harness_.realtime.counters();
+  ASSERT_TRUE(Exchange(device, session, StateAt(5, {0, 0, 0.1})));
+
+  // Wrong key.
+  OpenedSession forged = session;
+  forged.key[0] ^= 1;
+  EXPECT_FALSE(Exchange(device, forged, StateAt(6, {0, 0, 0.1})));
+  EXPECT_EQ(counters.bad_tag.load(), 1u);
+  // The same sequence again, and an older one never seen.
+  EXPECT_FALSE(Exchange(device, session, StateAt(5, {0, 0, 0.1})));
+  EXPECT_EQ(counters.replayed.load(), 1u);
+  EXPECT_FALSE(Exchange(device, session, StateAt(4, {0, 0, 0.1})));
+  EXPECT_EQ(counters.reordered.load(), 1u);
+  // A session nobody opened.
+  OpenedSession stranger = session;
+  stranger.id = session.id + 1;
+  EXPECT_FALSE(Exchange(device, stranger, StateAt(6, {0, 0, 0.1})));
+  EXPECT_EQ(counters.unknown_session.load(), 1u);
+  // Too long, too short, not protobuf.
+  std::vector<uint8_t> big(kMaxDatagramSize + 100, 0x08);
+  device.SendRaw(big);
+  std::vector<uint8_t> tiny = {0x0d, 0x01};
+  device.SendRaw(tiny);
+  std::vector<uint8_t> garbage(64, 0xff);
+  device.SendRaw(garbage);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(counters.oversized.load(), 1u);
+  EXPECT_EQ(counters.malformed.load(), 2u);
+
+  // Through all that, the session is served as before.
+  const auto command = Exchange(device, session, StateAt(6, {0, 0, 0.04}));
+  ASSERT_TRUE(command);
+  EXPECT_NEAR(command->f_W.z(), 10, 1e-5);
+  const SessionTelemetrySample telemetry = harness_.sessions.slot(harness_.sessions.FindById(session.id)).published.Read();
+  EXPECT_EQ(telemetry.bad_tag, 1u);
+  EXPECT_EQ(telemetry.replayed, 1u);
+  EXPECT_EQ(telemetry.reordered, 1u);
+  EXPECT_EQ(telemetry.states_received, 2u);
+}
+
+TEST_F(RealtimeChannelTest, NonFiniteStatesGetTheLastSafeForceAndAreCounted) {
+  const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
+  DeviceSocket device(harness_.realtime.local_endpoint().port());
+  ASSERT_TRUE(Exchange(device, session, StateAt(1, {0, 0, 0.06})));
+  const auto pressed = Exchange(device, session, StateAt(2, {0, 0, 0.045}));
+  ASSERT_TRUE(pressed);
+  const auto bad = Exchange(device, session, StateAt(3, {NAN, 0, INFINITY}));
+  ASSERT_TRUE(bad);
+  EXPECT_TRUE(bad->f_W.allFinite());
+  EXPECT_EQ(bad->f_W, pressed->f_W);
+  EXPECT_EQ(harness_.sessions.slot(harness_.sessions.FindById(session.id)).published.Read().render.nonfinite_inputs, 1u);
+}
+
+TEST_F(RealtimeChannelTest, SilenceRampsTheForceToZeroThenTheSessionTimesOut) {
+  const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1}, 0.5);
+  DeviceSocket device(harness_.realtime.local_endpoint().port());
+  ASSERT_TRUE(Exchange(device, session, StateAt(1, {0, 0, 0.06})));
+  ASSERT_TRUE(Exchange(device, session, StateAt(2, {0, 0, 0.04})));
+
+  // The device goes quiet: the watchdog's commands arrive, flagged, never growing, down to zero.
+  double previous = 10 + 1e-5;
+  int watchdog_commands = 0;
+  while (const auto command = ReceiveCommand(device, session, 300)) {
+    EXPECT_EQ(command->flags, static_cast<uint32_t>(v1::COMMAND_FLAGS_WATCHDOG));
+    EXPECT_EQ(command->sequence, 0u);
+    EXPECT_LE(command->f_W.norm(), previous + 1e-12);
+    previous = command->f_W.norm();
+    ++watchdog_commands;
+    if (previous == 0) break;
+  }
+  EXPECT_GT(watchdog_commands, 10);
+  EXPECT_EQ(previous, 0);
+  const int index = harness_.sessions.FindById(session.id);
+  EXPECT_EQ(harness_.sessions.slot(index).state.load(), SlotState::kRamping);
+
+  // After the timeout the slot is handed back and reclaimed; the session is gone.
+  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  EXPECT_EQ(harness_.sessions.slot(index).state.load(), SlotState::kTimedOut);
+  harness_.service.ReclaimSessions();
+  EXPECT_EQ(harness_.sessions.FindById(session.id), -1);
+  EXPECT_EQ(harness_.realtime.counters().sessions_timed_out.load(), 1u);
+  const v1::Telemetry telemetry = harness_.service.BuildTelemetry({});
+  ASSERT_EQ(telemetry.sessions_size(), 1);
+  EXPECT_EQ(telemetry.sessions(0).state(), v1::SESSION_STATE_TIMED_OUT);
+  EXPECT_EQ(telemetry.sessions(0).force().z(), 0);
+  EXPECT_FALSE(Exchange(device, session, StateAt(3, {0, 0, 0.04})));
+  EXPECT_EQ(harness_.realtime.counters().unknown_session.load(), 1u);
+}
+
+TEST_F(RealtimeChannelTest, ClosedSessionsAreReclaimed) {
+  const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
+  DeviceSocket device(harness_.realtime.local_endpoint().port());
+  ASSERT_TRUE(Exchange(device, session, StateAt(1, {0, 0, 0.1})));
+  v1::Request close;
+  close.mutable_close_session()->set_session_id(session.id);
+  EXPECT_TRUE(harness_.Call(close).has_done());
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  harness_.service.ReclaimSessions();
+  EXPECT_EQ(harness_.sessions.FindById(session.id), -1);
+  EXPECT_FALSE(Exchange(device, session, StateAt(2, {0, 0, 0.1})));
+  // Closing it again names the id.
+  const v1::Reply again = harness_.Call(close);
+  ASSERT_TRUE(again.has_error());
+  EXPECT_EQ(again.error().code(), v1::Error::CODE_NOT_FOUND);
+}
+
+TEST_F(RealtimeChannelTest, AnAdmittanceAvatarPushedIntoTheBoxStopsOnItsSurface) {
+  const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_ADMITTANCE, {0, 0, 0.07});
+  DeviceSocket device(harness_.realtime.local_endpoint().port());
+  // 10 N down for 2 s of device ticks (sent as fast as answered).
+  DeviceCommandSample last;
+  for (uint64_t sequence = 1; sequence <= 2000; ++sequence) {
+    DeviceStateSample state = StateAt(sequence, last.sequence ? last.p_command_W : Vector3(0, 0, 0.07));
+    state.f_sensed_W = {0, 0, -10};
+    const auto command = Exchange(device, session, state);
+    ASSERT_TRUE(command) << sequence;
+    ASSERT_GE(command->p_command_W.z(), 0.05 - 1e-9) << sequence;
+    last = *command;
+  }
+  EXPECT_NEAR(last.p_command_W.z(), 0.05, 1e-6);
+  EXPECT_TRUE(last.contact);
+  EXPECT_EQ(last.f_W, Vector3::Zero());  // admittance commands carry a pose, not a force
+}
+
+TEST_F(RealtimeChannelTest, ManySessionsAreServedSideBySide) {
+  DeviceSocket device(harness_.realtime.local_endpoint().port());
+  std::vector<OpenedSession> sessions;
+  for (int i = 0; i < 8; ++i) sessions.push_back(Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1}));
+  // The table holds eight: a ninth is refused, naming why.
+  v1::Request ninth;
+  v1::OpenSession* open = ninth.mutable_open_session();
+  open->set_device_type(v1::DEVICE_TYPE_IMPEDANCE);
+  open->set_degrees_of_freedom(3);
+  open->set_max_force(1);
+  open->set_max_velocity(1);
+  open->set_rate_hz(1000);
+  const v1::Reply refused = harness_.Call(ninth);
+  ASSERT_TRUE(refused.has_error());
+  EXPECT_EQ(refused.error().code(), v1::Error::CODE_RESOURCE_EXHAUSTED);
+  EXPECT_EQ(refused.error().message(), "all 8 session slots are in use");
+  for (int round = 1; round <= 3; ++round) {
+    for (int i = 0; i < 8; ++i) {
+      const double depth = 0.001 * (i + 1);
+      const auto command = Exchange(device, sessions[i], StateAt(round, {0, 0, 0.05 - depth}));
+      ASSERT_TRUE(command);
+      EXPECT_EQ(command->session_id, sessions[i].id);
+      if (round > 1) EXPECT_NEAR(command->f_W.z(), 1000 * depth, 1e-5);
+    }
+  }
+}
+
+// Rendering a session's states, dropping bad ones and ramping a silent session: with
+// the sessions open, nothing on either side of the socket allocates.
+TEST_F(RealtimeChannelTest, TheRealtimePathAllocatesNothing) {
+  const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
+  const OpenedSession sphere = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
+  DeviceSocket device(harness_.realtime.local_endpoint().port());
+  ASSERT_TRUE(Exchange(device, session, StateAt(1, {0, 0, 0.06})));
+  ASSERT_TRUE(Exchange(device, sphere, StateAt(1, {0, 0, 0.06})));
+
+  // From here the test itself uses only preallocated buffers.
+  std::array<uint8_t, kMaxDatagramSize> out;
+  std::array<uint8_t, kMaxDatagramSize> forged;
+  const long before = g_allocations.load();
+  int answered = 0;
+  for (uint64_t sequence = 2; sequence < 500; ++sequence) {
+    DeviceStateSample state = StateAt(sequence, {0.001 * (sequence % 7), 0, 0.05 - 1e-5 * sequence});
+    for (const OpenedSession* s : {&session, &sphere}) {
+      state.session_id = s->id;
+      const std::size_t size = codec_.EncodeState(state, s->key, out);
+      device.SendRaw({out.data(), size});
+      // A forged copy and a replay ride along, to be dropped.
+      std::copy(out.begin(), out.begin() + size, forged.begin());
+      forged[size - 1] ^= 1;
+      device.SendRaw({forged.data(), size});
+      device.SendRaw({out.data(), size});
+    }
+    pollfd waiter{device.fd(), POLLIN, 0};
+    while (poll(&waiter, 1, 50) > 0 && recv(device.fd(), forged.data(), forged.size(), 0) > 0) {
+      if (++answered % 2 == 0) break;
+    }
+  }
+  // Then silence long enough for both watchdogs to ramp to zero.
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_GE(answered, 900);
+  EXPECT_GE(harness_.realtime.counters().bad_tag.load(), 900u);
+  EXPECT_GE(harness_.realtime.counters().replayed.load(), 900u);
+}
+
+}  // namespace
+}  // namespace hapticd::net
