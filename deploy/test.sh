@@ -24,3 +24,5 @@ echo "== Python package: lint, types, unit tests"
 .venv/bin/python -m pytest -q clients/python/tests
 echo "== end-to-end tests"
 .venv/bin/python -m pytest -q tests
+echo "== end-to-end server tests against the ASan+UBSan build"
+HAPTICD_BIN=build/sanitize/bin .venv/bin/python -m pytest -q tests/test_e2e_*.py

@@ -5,6 +5,8 @@
 #include <asio/ip/address.hpp>
 #include <fmt/format.h>
 
+#include "server/net/session_table.h"
+
 namespace hapticd::app {
 namespace {
 
@@ -69,7 +71,7 @@ ServerOptions ParseServerOptions(std::span<const std::string_view> args) {
     } else if (option == "--scene") {
       options.scene_file = value;
     } else if (option == "--max-sessions") {
-      options.max_sessions = ReadInt(option, value, 1, 4096);
+      options.max_sessions = ReadInt(option, value, 1, net::kMaxSessions);
     } else if (option == "--realtime-priority") {
       options.realtime_priority = ReadInt(option, value, 0, 99);
     } else if (option == "--tls-cert") {

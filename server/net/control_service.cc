@@ -224,9 +224,7 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open) {
     throw RequestError(v1::Error::CODE_RESOURCE_EXHAUSTED,
                        fmt::format("all {} session slots are in use", sessions_.capacity()));
   }
-  // A random id nobody else holds (0 is never an id: the wire's default).
-  uint32_t id = 0;
-  while (id == 0 || sessions_.FindById(id) >= 0) id = randombytes_random();
+  const uint32_t id = sessions_.MakeId(index);
 
   // Fill the free slot, then hand it to the realtime thread with one release store.
   SessionSlot& slot = sessions_.slot(index);

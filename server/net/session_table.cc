@@ -1,5 +1,9 @@
 #include "server/net/session_table.h"
 
+#include <sodium.h>
+
+#include <stdexcept>
+
 namespace hapticd::net {
 
 bool IsLive(SlotState state) {
@@ -7,6 +11,11 @@ bool IsLive(SlotState state) {
 }
 
 SessionTable::SessionTable(int capacity) {
+  if (capacity < 1 || capacity > kMaxSessions) {
+    throw std::invalid_argument("a session table holds 1 to " + std::to_string(kMaxSessions) + " sessions, not " +
+                                std::to_string(capacity));
+  }
+  if (sodium_init() < 0) throw std::runtime_error("libsodium failed to initialise");
   slots_.reserve(capacity);
   for (int i = 0; i < capacity; ++i) slots_.push_back(std::make_unique<SessionSlot>());
 }
@@ -27,11 +36,18 @@ int SessionTable::FindById(uint32_t id) const {
 }
 
 int SessionTable::FindLive(uint32_t id) const {
-  for (int i = 0; i < capacity(); ++i) {
-    const SessionSlot& slot = *slots_[i];
-    if (IsLive(slot.state.load(std::memory_order_acquire)) && slot.id == id) return i;
+  const int index = static_cast<int>(id & (kMaxSessions - 1));
+  if (index >= capacity()) return -1;
+  const SessionSlot& slot = *slots_[index];
+  return IsLive(slot.state.load(std::memory_order_acquire)) && slot.id == id ? index : -1;
+}
+
+uint32_t SessionTable::MakeId(int index) const {
+  uint32_t id = 0;
+  while (id == 0 || FindById(id) >= 0) {
+    id = (randombytes_random() & ~static_cast<uint32_t>(kMaxSessions - 1)) | static_cast<uint32_t>(index);
   }
-  return -1;
+  return id;
 }
 
 }  // namespace hapticd::net

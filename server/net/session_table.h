@@ -101,8 +101,14 @@ struct SessionSlot {
   SeqLocked<SessionTelemetrySample> published;
 };
 
+// A session id carries its slot's index in its low kSlotBits bits (the rest is random),
+// so the realtime thread finds a session without searching.
+inline constexpr int kSlotBits = 12;
+inline constexpr int kMaxSessions = 1 << kSlotBits;
+
 class SessionTable {
  public:
+  // capacity in [1, kMaxSessions].
   explicit SessionTable(int capacity);
 
   int capacity() const { return static_cast<int>(slots_.size()); }
@@ -112,8 +118,11 @@ class SessionTable {
   int FindFree() const;
   // Control thread: the slot of a session that is not free, or -1.
   int FindById(uint32_t id) const;
-  // Realtime thread: the live slot (kWaiting, kActive, kRamping) of id, or -1.
+  // Realtime thread: the live slot (kWaiting, kActive, kRamping) of id, or -1. O(1).
   int FindLive(uint32_t id) const;
+  // Control thread: a new id for the slot at index, random in its other bits, never 0
+  // and never that of a session still in the table.
+  uint32_t MakeId(int index) const;
 
  private:
   std::vector<std::unique_ptr<SessionSlot>> slots_;

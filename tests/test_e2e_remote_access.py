@@ -1,0 +1,87 @@
+"""Off loopback the control channel needs TLS and the access token: the server refuses
+to start without them, and an untrusted peer must Hello with the token before anything
+else. The realtime channel needs neither: its datagrams carry the session key's tag."""
+
+import socket
+import ssl
+import subprocess
+
+import hapticd
+import pytest
+from hapticd.v1 import hapticd_pb2 as pb
+from server_process import running_server
+
+TOKEN = "remote-token-0123456789"
+
+
+def local_address() -> str:
+    """This machine's address towards the outside (a UDP connect sends nothing)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.connect(("192.0.2.1", 9))
+        address = probe.getsockname()[0]
+    assert not address.startswith("127."), "this machine has no address but loopback"
+    return address
+
+
+def make_certificate(tmp_path, address: str):
+    cert, key = tmp_path / "cert.pem", tmp_path / "key.pem"
+    subprocess.run(
+        ["openssl", "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:prime256v1",
+         "-nodes", "-keyout", str(key), "-out", str(cert), "-days", "1",
+         "-subj", f"/CN={address}", "-addext", f"subjectAltName=IP:{address}"],
+        check=True, capture_output=True, timeout=30,
+    )
+    return cert, key
+
+
+def test_leaving_loopback_without_tls_and_a_token_is_refused(bin_dir):
+    done = subprocess.run(
+        [str(bin_dir / "hapticd"), "--host", "0.0.0.0", "--tcp-port", "0", "--udp-port", "0"],
+        capture_output=True, text=True, timeout=30,
+    )
+    assert done.returncode == 2
+    assert done.stdout == ""
+    assert "--host is 0.0.0.0, not loopback" in done.stderr and "--access-token-file" in done.stderr
+
+
+def test_a_remote_peer_must_hello_with_the_token(bin_dir, tmp_path):
+    address = local_address()
+    cert, key = make_certificate(tmp_path, address)
+    token_file = tmp_path / "token"
+    token_file.write_text(TOKEN + "\n")
+    args = ["--host", address, "--tls-cert", str(cert), "--tls-key", str(key),
+            "--access-token-file", str(token_file), "--log-level", "error"]
+    with running_server(bin_dir, *args) as server:
+        assert server.tcp.startswith(address + ":")
+        tls = ssl.create_default_context(cafile=str(cert))
+
+        # No token, then a wrong one: refused by name, and nothing else is served.
+        for token in ("", "not-the-token-at-all"):
+            with pytest.raises(hapticd.RemoteError) as refused:
+                hapticd.connect(server.tcp, tls=tls, access_token=token)
+            assert refused.value.code == "UNAUTHENTICATED"
+            assert "access_token is not this server's token" in refused.value.message
+
+        # The plain protocol without a Hello is refused too.
+        raw = tls.wrap_socket(socket.create_connection(server.tcp.rsplit(":", 1)), server_hostname=address)
+        request = pb.Request(request_id=3, get_scene=pb.GetScene()).SerializeToString()
+        raw.sendall(len(request).to_bytes(4, "big") + request)
+        length = int.from_bytes(raw.recv(4), "big")
+        body = b""
+        while len(body) < length:
+            body += raw.recv(length - len(body))
+        reply = pb.Reply.FromString(body)
+        assert reply.request_id == 3
+        assert reply.error.code == pb.Error.CODE_UNAUTHENTICATED
+        raw.close()
+
+        # With the token: scene, a session, and its datagrams over the machine's address.
+        with hapticd.connect(server.tcp, tls=tls, access_token=TOKEN) as client:
+            assert client.scene().object("box").shape == "box"
+            info = client.open_session("impedance", start=(0.15, 0, 0.2))
+            assert info.udp_host == address
+            with hapticd.DeviceSession(info) as device:
+                command = device.exchange((0.15, 0, 0.098), timeout_s=1.0)
+            assert command.contact
+            assert command.force[2] == pytest.approx(2000 * 0.002, rel=1e-3)
+        assert server.alive
