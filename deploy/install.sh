@@ -9,7 +9,7 @@ packages=(
   build-essential cmake ninja-build g++ pkg-config git
   libasio-dev libprotobuf-dev protobuf-compiler libembree-dev libeigen3-dev
   libgtest-dev libgmock-dev libbenchmark-dev rapidjson-dev libfmt-dev libssl-dev libsodium-dev
-  python3 python3-venv python3-dev
+  python3 python3-venv python3-dev openssl
 )
 
 missing=()

@@ -2,6 +2,7 @@
 to start without them, and an untrusted peer must Hello with the token before anything
 else. The realtime channel needs neither: its datagrams carry the session key's tag."""
 
+import json
 import socket
 import ssl
 import subprocess
@@ -84,4 +85,35 @@ def test_a_remote_peer_must_hello_with_the_token(bin_dir, tmp_path):
                 command = device.exchange((0.15, 0, 0.098), timeout_s=1.0)
             assert command.contact
             assert command.force[2] == pytest.approx(2000 * 0.002, rel=1e-3)
+        assert server.alive
+
+
+def test_the_cpp_proxy_reaches_a_remote_server_over_tls(bin_dir, tmp_path):
+    address = local_address()
+    cert, key = make_certificate(tmp_path, address)
+    token_file = tmp_path / "token"
+    token_file.write_text(TOKEN + "\n")
+    wrong_token = tmp_path / "wrong"
+    wrong_token.write_text("not-the-token-at-all\n")
+    args = ["--host", address, "--tls-cert", str(cert), "--tls-key", str(key),
+            "--access-token-file", str(token_file), "--log-level", "error"]
+    with running_server(bin_dir, *args) as server:
+        proxy = [str(bin_dir / "hapticd-proxy"), "--server", server.tcp, "--seconds", "0.5"]
+        done = subprocess.run([*proxy, "--tls-ca", str(cert), "--access-token-file", str(token_file)],
+                              capture_output=True, text=True, timeout=60)
+        assert done.returncode == 0, done.stderr
+        report = json.loads(done.stdout)
+        assert report["packets_sent"] == 500 and report["packets_lost"] == 0
+        # a wrong token, and no TLS at all, are refused by name
+        done = subprocess.run([*proxy, "--tls-ca", str(cert), "--access-token-file", str(wrong_token)],
+                              capture_output=True, text=True, timeout=60)
+        assert done.returncode == 1 and "CODE_UNAUTHENTICATED" in done.stderr
+        done = subprocess.run([*proxy, "--timeout-s", "2"], capture_output=True, text=True, timeout=60)
+        assert done.returncode == 1
+        # the CA must vouch for the server
+        (tmp_path / "other").mkdir()
+        other_cert, _ = make_certificate(tmp_path / "other", address)
+        done = subprocess.run([*proxy, "--tls-ca", str(other_cert), "--access-token-file", str(token_file)],
+                              capture_output=True, text=True, timeout=60)
+        assert done.returncode == 1 and "TLS handshake" in done.stderr
         assert server.alive

@@ -248,6 +248,7 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open) {
   slot.telemetry.avatar_W = start_W;
   slot.published.Write(slot.telemetry);
   slot.close_requested.store(false, std::memory_order_relaxed);
+  sessions_.MarkOpened(index);
   slot.state.store(SlotState::kWaiting, std::memory_order_release);
   ++sessions_opened_;
   Log(LogLevel::kInfo, "session {} opened: {} {} avatar, {}, {} Hz, max force {} N", SessionName(id),

@@ -212,7 +212,8 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
 void RealtimeChannel::TickSilentSessions(int64_t now_ns) {
   int replies = 0;
   const scene::SceneSnapshot& scene = publisher_.Acquire(reader_);
-  for (int i = 0; i < sessions_.capacity(); ++i) {
+  const int used_slots = sessions_.used_slots();
+  for (int i = 0; i < used_slots; ++i) {
     SessionSlot& slot = sessions_.slot(i);
     const SlotState state = slot.state.load(std::memory_order_acquire);
     if (!IsLive(state)) continue;

@@ -27,6 +27,10 @@ int SessionTable::FindFree() const {
   return -1;
 }
 
+void SessionTable::MarkOpened(int index) {
+  if (index >= used_slots_.load(std::memory_order_relaxed)) used_slots_.store(index + 1, std::memory_order_release);
+}
+
 int SessionTable::FindById(uint32_t id) const {
   for (int i = 0; i < capacity(); ++i) {
     const SessionSlot& slot = *slots_[i];

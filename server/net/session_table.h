@@ -114,8 +114,12 @@ class SessionTable {
   int capacity() const { return static_cast<int>(slots_.size()); }
   SessionSlot& slot(int i) { return *slots_[i]; }
 
-  // Control thread: the index of a free slot, or -1 when all are in use.
+  // Control thread: the index of the lowest free slot, or -1 when all are in use.
   int FindFree() const;
+  // One past the highest slot ever opened: the realtime thread's scans stop there.
+  // Control thread: MarkOpened before publishing a slot's state.
+  int used_slots() const { return used_slots_.load(std::memory_order_acquire); }
+  void MarkOpened(int index);
   // Control thread: the slot of a session that is not free, or -1.
   int FindById(uint32_t id) const;
   // Realtime thread: the live slot (kWaiting, kActive, kRamping) of id, or -1. O(1).
@@ -126,6 +130,7 @@ class SessionTable {
 
  private:
   std::vector<std::unique_ptr<SessionSlot>> slots_;
+  std::atomic<int> used_slots_{0};
 };
 
 bool IsLive(SlotState state);

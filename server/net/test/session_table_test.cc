@@ -37,6 +37,11 @@ TEST(SessionTable, IdsCarryTheirSlotAndAreFoundOnlyWhileLive) {
   // A new id never repeats one still in the table.
   for (int i = 0; i < 1000; ++i) EXPECT_NE(table.MakeId(3), slot.id);
   EXPECT_EQ(table.FindFree(), 0);
+  // Scans stop past the highest slot ever opened.
+  EXPECT_EQ(table.used_slots(), 0);
+  table.MarkOpened(3);
+  table.MarkOpened(1);
+  EXPECT_EQ(table.used_slots(), 4);
 }
 
 TEST(SessionTable, RefusesCapacitiesOutsideTheIdSpace) {

@@ -1,0 +1,138 @@
+#!/usr/bin/env bash
+# The realtime channel's latency, in one run on this machine:
+#   1. device-to-command round trip of one 1 kHz session (the C++ proxy's simulated hand
+#      stroking the default scene) against hapticd and against a plain UDP echo, in
+#      alternating blocks;
+#   2. sessions one server holds: N sessions at 1 kHz from one proxy loop, against
+#      hapticd and against the echo at the same N, in alternating blocks; added latency =
+#      the difference; the CPU time each side used;
+#   3. one session while a 10 MB mesh is uploaded, edited and removed in a loop, beside
+#      the same session quiet (bench/scene_edit_load.py);
+#   4. the datagram codec's cost per datagram (Google Benchmark).
+# Writes bench/results/latency.md (tables and a reading against issue 4's aims),
+# bench/results/latency.csv (one row per proxy run) and the raw runs in
+# bench/results/raw/latency_runs.jsonl and latency_codec.json (bench/latency_table.py
+# turns them into the tables again). About 3 minutes after the build.
+# Blocks alternate between hapticd and the echo and the tables report medians over
+# blocks, so a burst of other work on the machine does not land on one side only.
+#   bench/run_latency.sh [--blocks 5] [--block-seconds 4] [--scale-blocks 3] [--scale-seconds 1.5]
+set -euo pipefail
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$repo"
+
+blocks=5
+block_seconds=4
+scale_blocks=3
+scale_seconds=1.5
+while (($#)); do
+  case "$1" in
+    --blocks) blocks="$2"; shift 2 ;;
+    --block-seconds) block_seconds="$2"; shift 2 ;;
+    --scale-blocks) scale_blocks="$2"; shift 2 ;;
+    --scale-seconds) scale_seconds="$2"; shift 2 ;;
+    *)
+      echo "usage: bench/run_latency.sh [--blocks N] [--block-seconds S] [--scale-blocks N] [--scale-seconds S]" >&2
+      exit 2
+      ;;
+  esac
+done
+sessions_list=(1 10 25 50 100 150 200)
+
+bash deploy/install.sh
+bash deploy/build.sh normal >/dev/null
+
+work="$(mktemp -d)"
+load_before="$(cut -d' ' -f1-3 /proc/loadavg)"
+pids=()
+cleanup() {
+  for pid in "${pids[@]}"; do kill -INT "$pid" 2>/dev/null || true; done
+  wait 2>/dev/null || true
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+# start NAME COMMAND...: runs it in the background and waits (10 s at most) for its
+# first stdout line, the JSON naming its endpoints
+start() {
+  local name="$1"
+  shift
+  "$@" >"$work/$name.out" 2>"$work/$name.err" &
+  pids+=($!)
+  for _ in $(seq 200); do
+    [[ -s "$work/$name.out" ]] && return 0
+    sleep 0.05
+  done
+  echo "run_latency: $name did not start:" >&2
+  cat "$work/$name.err" >&2
+  exit 1
+}
+field() { .venv/bin/python -c "import json,sys; print(json.loads(sys.stdin.readline())['$1'])" <"$work/$2.out"; }
+
+start hapticd build/bin/hapticd --tcp-port 0 --udp-port 0 --log-level warning
+hapticd_pid="${pids[-1]}"
+start echo build/bin/hapticd-udp-echo --port 0
+echo_pid="${pids[-1]}"
+server="$(field tcp hapticd)"
+echo_udp="$(field udp echo)"
+echo "run_latency: hapticd control $server, echo $echo_udp" >&2
+
+# cpu_seconds PID: user + system CPU time the process has used so far
+ticks_per_second="$(getconf CLK_TCK)"
+cpu_seconds() { awk -v hz="$ticks_per_second" '{ printf "%.2f", ($14 + $15) / hz }' "/proc/$1/stat"; }
+
+# proxy PHASE BLOCK hapticd|echo ARGS...: one proxy run against that peer, its JSON line
+# tagged with phase, block and the CPU time the peer used meanwhile
+raw="bench/results/raw"
+mkdir -p "$raw"
+runs="$raw/latency_runs.jsonl"
+: >"$runs"
+proxy() {
+  local phase="$1" block="$2" peer="$3" target pid
+  shift 3
+  if [[ "$peer" == hapticd ]]; then target=(--server "$server"); pid="$hapticd_pid"; else target=(--echo "$echo_udp"); pid="$echo_pid"; fi
+  local before line after
+  before="$(cpu_seconds "$pid")"
+  line="$(build/bin/hapticd-proxy "${target[@]}" "$@")"
+  after="$(cpu_seconds "$pid")"
+  echo "{\"phase\": \"$phase\", \"block\": $block, \"peer_cpu_s\": $(awk -v a="$after" -v b="$before" 'BEGIN { printf "%.2f", a - b }'), \"result\": $line}" >>"$runs"
+}
+
+# 1. one session, hapticd and echo alternating
+for block in $(seq "$blocks"); do
+  echo "run_latency: block $block of $blocks" >&2
+  proxy compare "$block" hapticd --seconds "$block_seconds"
+  proxy compare "$block" echo --seconds "$block_seconds"
+done
+
+# 2. sessions: every device held 2 mm into the floor (in contact every tick); a longer
+# budget, since one loop sends N states before it can read an answer
+for n in "${sessions_list[@]}"; do
+  echo "run_latency: $n sessions" >&2
+  for block in $(seq "$scale_blocks"); do
+    for peer in hapticd echo; do
+      proxy sessions "$block" "$peer" --seconds "$scale_seconds" --sessions "$n" --path press --budget-us 900
+    done
+  done
+done
+
+# 3. scene edits: one session in the same stroke, quiet and while a 10 MB mesh is uploaded,
+# edited and removed again and again over the control channel
+for block in $(seq 3); do
+  echo "run_latency: scene edits, block $block of 3" >&2
+  proxy edits-quiet "$block" hapticd --seconds "$block_seconds"
+  .venv/bin/python bench/scene_edit_load.py --server "$server" --seconds "$block_seconds" >"$work/edits.json" &
+  editor=$!
+  proxy edits-busy "$block" hapticd --seconds "$block_seconds"
+  wait "$editor"
+  echo "{\"phase\": \"edits-load\", \"block\": $block, \"result\": $(cat "$work/edits.json")}" >>"$runs"
+done
+
+# 4. the codec
+echo "run_latency: datagram codec" >&2
+build/bin/datagram_codec_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
+  --benchmark_min_time=0.2 --benchmark_out_format=json --benchmark_out="$raw/latency_codec.json" >/dev/null
+
+machine="$(date -u +%F), $(nproc) CPUs ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)), load average before the run: $load_before"
+.venv/bin/python bench/latency_table.py "$runs" "$raw/latency_codec.json" --machine "$machine" \
+  --csv bench/results/latency.csv >bench/results/latency.md
+echo "wrote bench/results/latency.md and bench/results/latency.csv" >&2

@@ -1,0 +1,210 @@
+// hapticd-proxy: a simulated haptic device (or many) served by hapticd over the real
+// UDP channel, or by a plain UDP echo for the latency baseline. See proxy_options.cc for
+// the command line; prints one JSON line.
+#include <pthread.h>
+#include <sys/resource.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <ctime>
+#include <fstream>
+#include <memory>
+#include <string_view>
+#include <system_error>
+#include <thread>
+#include <vector>
+#include <fmt/format.h>
+#include <asio/ip/udp.hpp>
+
+#include "clients/cpp/control_client.h"
+#include "clients/cpp/proxy_loop.h"
+#include "clients/cpp/proxy_options.h"
+#include "clients/cpp/sim_device_driver.h"
+#include "clients/cpp/tick_schedule.h"
+
+namespace {
+
+using namespace hapticd::proxy;
+
+// Where the held devices are: free space above the scene, and 2 mm into the floor.
+const Vector3 kStillPoint_W(0, 0, 0.1);
+const Vector3 kPressPoint_W(0.05, 0, -0.002);
+
+// One device as the options describe it.
+std::unique_ptr<DeviceDriver> MakeDriver(const ProxyOptions& options) {
+  DeviceCaps caps;
+  caps.kind = options.mode;
+  caps.max_force = options.max_force;
+  caps.rate_hz = options.rate_hz;
+  switch (options.path) {
+    case PathKind::kStill:
+      caps.start_W = kStillPoint_W;
+      return std::make_unique<HeldDeviceDriver>(caps);
+    case PathKind::kPress:
+      caps.start_W = kPressPoint_W;
+      return std::make_unique<HeldDeviceDriver>(caps);
+    case PathKind::kStroke:
+    case PathKind::kCustom:
+      break;
+  }
+  // the simulated hand starts at rest where its path starts
+  std::vector<hapticd::sim::PathPoint> path =
+      options.path == PathKind::kStroke ? MakeStrokePath(options.seconds) : options.custom_path;
+  const Vector3 start_W = path.front().p_W;
+  return std::make_unique<SimDeviceDriver>(caps, MakeDemoHand(std::move(path)), MakeDemoDevice(start_W));
+}
+
+// The echo's address: a numeric one, or the first a name resolves to.
+asio::ip::udp::endpoint ResolveUdp(const HostPort& target) {
+  asio::io_context context;
+  asio::ip::udp::resolver resolver(context);
+  std::error_code error;
+  const auto results = resolver.resolve(target.host, std::to_string(target.port), error);
+  if (error || results.empty()) {
+    throw std::system_error(error, fmt::format("cannot resolve {}:{}", target.host, target.port));
+  }
+  return *results.begin();
+}
+
+// SIGINT and SIGTERM end the run early (the report is still printed): they are blocked
+// in every thread but a watcher that waits for them and sets stop.
+class SignalWatcher {
+ public:
+  explicit SignalWatcher(std::atomic<bool>& stop) {
+    sigemptyset(&signals_);
+    sigaddset(&signals_, SIGINT);
+    sigaddset(&signals_, SIGTERM);
+    pthread_sigmask(SIG_BLOCK, &signals_, nullptr);
+    thread_ = std::thread([this, &stop] {
+      const timespec poll{0, 100'000'000};
+      while (!done_.load()) {
+        if (sigtimedwait(&signals_, nullptr, &poll) > 0) stop.store(true);
+      }
+    });
+  }
+  ~SignalWatcher() {
+    done_.store(true);
+    thread_.join();
+  }
+
+ private:
+  sigset_t signals_;
+  std::atomic<bool> done_{false};
+  std::thread thread_;
+};
+
+double Us(double ns) { return ns / 1000; }
+
+// CPU time this process has used, user and system, s.
+double ProcessCpuSeconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + t.tv_usec * 1e-6; };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
+void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const ProxyReport& r) {
+  fmt::print(
+      "{{\"target\": \"{}\", \"peer\": \"{}\", \"sessions\": {}, \"rate_hz\": {}, \"seconds\": {}, "
+      "\"realtime_priority\": {}, \"ticks\": {}, "
+      "\"rtt_p50_us\": {:.1f}, \"rtt_p90_us\": {:.1f}, \"rtt_p99_us\": {:.1f}, \"rtt_p999_us\": {:.1f}, "
+      "\"rtt_max_us\": {:.1f}, \"wire_rtt_p50_us\": {:.1f}, \"wire_rtt_p99_us\": {:.1f}, "
+      "\"wire_rtt_p999_us\": {:.1f}, \"lateness_p50_us\": {:.1f}, \"lateness_p99_us\": {:.1f}, "
+      "\"lateness_p999_us\": {:.1f}, \"lateness_max_us\": {:.1f}, \"deadline_misses\": {}, \"overruns\": {}, "
+      "\"skipped_ticks\": {}, \"packets_sent\": {}, \"packets_answered\": {}, \"packets_late\": {}, "
+      "\"packets_lost\": {}, \"stale\": {}, \"bad\": {}, \"send_errors\": {}, \"max_force_n\": {:.4f}, "
+      "\"contacts\": {}, \"watchdog_trips\": {}, \"cpu_s\": {:.3f}}}\n",
+      fmt::format("{}:{}", options.target.host, options.target.port), options.echo ? "echo" : "hapticd",
+      options.sessions, options.rate_hz, options.seconds, priority, r.ticks, Us(r.rtt.p50), Us(r.rtt.p90), Us(r.rtt.p99),
+      Us(r.rtt.p999), Us(r.rtt.max), Us(r.wire_rtt.p50), Us(r.wire_rtt.p99), Us(r.wire_rtt.p999),
+      Us(r.lateness.p50), Us(r.lateness.p99), Us(r.lateness.p999), Us(r.lateness.max), r.deadline_misses,
+      r.overruns, r.skipped_ticks, r.packets.sent, r.packets.answered, r.packets.late, r.packets.lost(),
+      r.packets.stale, r.packets.bad, r.packets.send_errors, r.max_force_n, r.contacts, r.watchdog_trips, cpu_s);
+  std::fflush(stdout);
+}
+
+// The token in the first line of path; empty when no file is given.
+std::string ReadAccessToken(const std::string& path) {
+  if (path.empty()) return {};
+  std::ifstream file(path);
+  std::string token;
+  if (!file || !std::getline(file, token)) {
+    throw ControlError(fmt::format("--access-token-file {} cannot be read", path));
+  }
+  return token;
+}
+
+int Run(const ProxyOptions& options) {
+  std::atomic<bool> stop{false};
+  SignalWatcher watcher(stop);
+
+  // the devices, and a session and link for each
+  std::vector<std::unique_ptr<DeviceDriver>> drivers;
+  std::vector<std::unique_ptr<RealtimeLink>> links;
+  std::unique_ptr<ControlClient> client;
+  std::vector<uint32_t> session_ids;
+  if (options.echo) {
+    const asio::ip::udp::endpoint echo = ResolveUdp(options.target);
+    for (int i = 0; i < options.sessions; ++i) {
+      drivers.push_back(MakeDriver(options));
+      links.push_back(std::make_unique<RealtimeLink>(static_cast<uint32_t>(i + 1), hapticd::net::MakeSessionKey(),
+                                                     echo, LinkPeer::kEcho));
+    }
+  } else {
+    const auto timeout = std::chrono::milliseconds(std::llround(options.timeout_s * 1000));
+    client = std::make_unique<ControlClient>(options.target.host, options.target.port, timeout, options.tls_ca_file);
+    client->Hello("hapticd-proxy", ReadAccessToken(options.access_token_file));
+    for (int i = 0; i < options.sessions; ++i) {
+      drivers.push_back(MakeDriver(options));
+      const SessionTicket ticket = client->OpenSession(MakeOpenSession(drivers.back()->caps()));
+      session_ids.push_back(ticket.session_id);
+      links.push_back(std::make_unique<RealtimeLink>(ticket.session_id, ticket.key, ticket.udp_endpoint));
+    }
+  }
+
+  ProxyLoopOptions loop_options;
+  loop_options.rate_hz = options.rate_hz;
+  loop_options.seconds = options.seconds;
+  loop_options.budget_ns = std::llround(options.budget_us * 1000);
+  loop_options.miss_threshold_ns = std::llround(options.miss_threshold_us * 1000);
+  loop_options.hold_s = options.hold_ms / 1000;
+  loop_options.ramp_s = options.ramp_ms / 1000;
+  std::vector<ProxyChannel> channels;
+  for (std::size_t i = 0; i < drivers.size(); ++i) channels.push_back({drivers[i].get(), links[i].get()});
+  ProxyLoop loop(loop_options, std::move(channels));
+  // the loop runs on this thread: at real-time priority when granted, else normal (0)
+  const int priority = PrepareRealtimeThread(options.realtime_priority) ? options.realtime_priority : 0;
+  const double cpu_before_s = ProcessCpuSeconds();
+  const ProxyReport report = loop.Run(&stop);
+  const double cpu_s = ProcessCpuSeconds() - cpu_before_s;
+
+  for (const uint32_t id : session_ids) client->CloseSession(id);
+  PrintReport(options, priority, cpu_s, report);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ProxyOptions options;
+  try {
+    const std::vector<std::string_view> args(argv + 1, argv + argc);
+    options = ParseProxyOptions(args);
+  } catch (const OptionsError& e) {
+    std::fprintf(stderr, "hapticd-proxy: %s\n", e.what());
+    return 2;
+  }
+  if (options.help) {
+    std::fwrite(Usage().data(), 1, Usage().size(), stdout);
+    return 0;
+  }
+  try {
+    return Run(options);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "hapticd-proxy: %s\n", e.what());
+    return 1;
+  }
+}

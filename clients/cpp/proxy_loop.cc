@@ -1,0 +1,140 @@
+#include "clients/cpp/proxy_loop.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "clients/cpp/tick_schedule.h"
+
+namespace hapticd::proxy {
+namespace {
+
+// After the last tick, how long late commands may still come to be counted as late
+// rather than lost.
+constexpr int64_t kLateGraceNs = 20'000'000;
+
+std::vector<RealtimeLink*> LinksOf(const std::vector<ProxyChannel>& channels) {
+  std::vector<RealtimeLink*> links;
+  for (const ProxyChannel& channel : channels) links.push_back(channel.link);
+  return links;
+}
+
+int64_t TotalTicks(const ProxyLoopOptions& options) { return std::llround(options.seconds * options.rate_hz); }
+
+// The device output a command asks for.
+DeviceOutput OutputOf(const net::DeviceCommandSample& command) {
+  DeviceOutput output;
+  output.f_W = command.f_W;
+  output.tau_W = command.tau_W;
+  output.p_W = command.p_command_W;
+  output.q_W = command.q_command_W;
+  return output;
+}
+
+}  // namespace
+
+ProxyLoop::ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> channels)
+    : options_(options),
+      channels_(std::move(channels)),
+      links_(LinksOf(channels_)),
+      link_set_(links_),
+      held_W_(channels_.size(), Vector3::Zero()),
+      readings_(channels_.size()),
+      rtt_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()),
+      wire_rtt_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()),
+      lateness_(static_cast<std::size_t>(TotalTicks(options))) {
+  // every command's wire round trip, late ones included, goes to one buffer
+  for (RealtimeLink* link : links_) link->set_wire_rtt_sink(&wire_rtt_);
+  // before any command: no force, and an admittance handle stays where it starts
+  for (const ProxyChannel& channel : channels_) {
+    const DeviceCaps caps = channel.driver->caps();
+    DeviceOutput initial;
+    initial.p_W = caps.start_W;
+    watchdogs_.emplace_back(initial, options_.hold_s, options_.ramp_s);
+    kinds_.push_back(caps.kind);
+  }
+}
+
+void ProxyLoop::SendStates(double t) {
+  for (std::size_t i = 0; i < channels_.size(); ++i) {
+    const DeviceReading reading = channels_[i].driver->Read(t);
+    readings_[i] = reading;
+    net::DeviceStateSample state;
+    state.p_WD = reading.p_W;
+    state.q_WD = reading.q_W;
+    state.v_WD = reading.v_W;
+    state.w_WD = reading.w_W;
+    state.buttons = reading.buttons;
+    state.f_sensed_W = reading.f_sensed_W;
+    // impedance: what the device rendered since its previous state
+    if (kinds_[i] == DeviceKind::kImpedance) state.f_held_W = held_W_[i];
+    const int64_t rtt_us = links_[i]->rtt_ns() / 1000;
+    state.rtt_us = static_cast<uint32_t>(std::clamp<int64_t>(rtt_us, 0, std::numeric_limits<uint32_t>::max()));
+    links_[i]->Send(state);
+  }
+}
+
+void ProxyLoop::ApplyCommands(double t, ProxyReport& report) {
+  for (std::size_t i = 0; i < channels_.size(); ++i) {
+    RealtimeLink& link = *links_[i];
+    // a command in time goes to the watchdog; without one, stop waiting for it
+    if (link.answered()) {
+      watchdogs_[i].Accept(OutputOf(link.command()), t);
+      rtt_.Record(link.rtt_ns());
+      report.contacts += link.command().contact ? 1 : 0;
+    } else {
+      link.Expire();
+    }
+    const DeviceOutput output = watchdogs_[i].Output(t);
+    channels_[i].driver->Apply(output);
+    held_W_[i] = output.f_W;
+    const double force = kinds_[i] == DeviceKind::kImpedance ? output.f_W.norm() : readings_[i].f_sensed_W.norm();
+    report.max_force_n = std::max(report.max_force_n, force);
+  }
+}
+
+ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
+  const int64_t period_ns = std::llround(1e9 / options_.rate_hz);
+  const int64_t total_ticks = TotalTicks(options_);
+  // the first deadline one period from now: setup is done, the schedule starts clean
+  const TickSchedule schedule(MonotonicNowNs() + period_ns, period_ns, options_.max_backlog_ticks);
+  ProxyReport report;
+  int64_t tick = 0;
+  while (tick < total_ticks && (stop == nullptr || !stop->load(std::memory_order_relaxed))) {
+    const int64_t deadline_ns = schedule.DeadlineOf(tick);
+    SleepUntilNs(deadline_ns);
+    const int64_t woke_ns = MonotonicNowNs();
+    const double t = static_cast<double>(tick) / options_.rate_hz;
+
+    // send, wait out the budget from the wake (never past the next deadline), apply
+    SendStates(t);
+    link_set_.AwaitAll(std::min(woke_ns + options_.budget_ns, schedule.DeadlineOf(tick + 1)));
+    ApplyCommands(t, report);
+
+    // judge the tick, then move on (skipping ahead after a stall)
+    const int64_t finished_ns = MonotonicNowNs();
+    const TickTiming timing = schedule.Classify(tick, woke_ns, finished_ns, options_.miss_threshold_ns);
+    lateness_.Record(timing.lateness_ns);
+    ++report.ticks;
+    report.deadline_misses += timing.missed() ? 1 : 0;
+    report.overruns += timing.overran ? 1 : 0;
+    const int64_t next = schedule.NextTick(tick, finished_ns);
+    report.skipped_ticks += next - tick - 1;
+    tick = next;
+  }
+
+  // commands still on their way count as late, not lost
+  SleepUntilNs(MonotonicNowNs() + kLateGraceNs);
+  for (std::size_t i = 0; i < links_.size(); ++i) {
+    links_[i]->Drain();
+    report.packets += links_[i]->counters();
+    report.watchdog_trips += watchdogs_[i].trips();
+  }
+  report.rtt = rtt_.Summarize();
+  report.wire_rtt = wire_rtt_.Summarize();
+  report.lateness = lateness_.Summarize();
+  report.dropped_samples = rtt_.dropped() + wire_rtt_.dropped() + lateness_.dropped();
+  return report;
+}
+
+}  // namespace hapticd::proxy

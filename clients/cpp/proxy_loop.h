@@ -1,0 +1,94 @@
+#pragma once
+// The device proxy's fixed-rate loop: one thread serving one or more devices, each with
+// its own session and socket.
+//
+// Theory of operation, tick k (due at start + k / rate_hz, tick_schedule.h):
+//
+//   sleep until the deadline (absolute) ---- woke: lateness = woke - deadline
+//   for each device: Read(t_k), send its state (held force = what it rendered since
+//                    its previous state, rtt_us = its last round trip)
+//   wait for the commands until woke + budget, at most the next deadline (LinkSet)
+//   for each device: a command that came -> the watchdog takes it; none -> the link
+//                    gives up on it (a later one counts as late); Apply the watchdog's
+//                    output (the command, or the held / ramping last one)
+//   finished: a miss if the tick woke later than the threshold or ran past the next
+//             deadline
+//
+// The simulated time t_k = k / rate_hz follows the schedule, skipped ticks included, so
+// the devices' physics and watchdogs age with the wall clock. Every buffer is sized
+// before the first tick: a tick allocates nothing.
+#include <atomic>
+#include <cstdint>
+#include <vector>
+
+#include "clients/cpp/command_watchdog.h"
+#include "clients/cpp/device_driver.h"
+#include "clients/cpp/latency_stats.h"
+#include "clients/cpp/realtime_link.h"
+
+namespace hapticd::proxy {
+
+struct ProxyLoopOptions {
+  double rate_hz = 1000;               // > 0
+  double seconds = 5;                  // > 0: the run's length; ticks = round(seconds * rate_hz)
+  int64_t budget_ns = 500'000;         // how long after it wakes a tick waits for its commands
+                                       // (never past the next tick's deadline)
+  int64_t miss_threshold_ns = 100'000;  // a tick waking later than this is a deadline miss
+  double hold_s = 0.05;                // device watchdog: hold the last command this long,
+  double ramp_s = 0.1;                 // then ramp its force to zero over this long
+  int max_backlog_ticks = 10;          // behind by more: skip to the present
+};
+
+// One device and the link of its session; both owned by the caller.
+struct ProxyChannel {
+  DeviceDriver* driver = nullptr;
+  RealtimeLink* link = nullptr;
+};
+
+// A run's outcome. Percentiles in ns.
+struct ProxyReport {
+  int64_t ticks = 0;           // ticks run
+  int64_t skipped_ticks = 0;   // ticks skipped after stalls
+  int64_t deadline_misses = 0;  // ticks that woke late (> threshold) or overran
+  int64_t overruns = 0;        // of which: the work ran past the next deadline
+  Percentiles rtt;             // send -> the loop reading the command (in time only)
+  Percentiles wire_rtt;        // send -> the kernel's arrival stamp, late commands included
+  Percentiles lateness;        // woke - deadline, per tick
+  LinkCounters packets;        // every link's, summed
+  int64_t contacts = 0;        // answered commands that report contact
+  double max_force_n = 0;      // impedance: largest rendered force; admittance: sensed
+  uint64_t watchdog_trips = 0;  // device watchdog: holds that ran out
+  std::size_t dropped_samples = 0;  // samples beyond the buffers (none when sized right)
+};
+
+class ProxyLoop {
+ public:
+  // Allocates everything the run needs: watchdogs, the epoll set and sample buffers for
+  // every tick of every channel. channels non-empty, options valid (positive rate and
+  // length, budget and threshold >= 0). Throws std::system_error when epoll fails.
+  ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> channels);
+
+  // Runs round(seconds * rate_hz) ticks' worth of time, or until *stop turns true (checked
+  // each tick; may be null), then waits 20 ms more for late commands. Call once.
+  ProxyReport Run(const std::atomic<bool>* stop = nullptr);
+
+ private:
+  // The tick's states: read every device and send.
+  void SendStates(double t);
+  // The tick's outputs: take the commands that came, apply what the watchdogs say.
+  void ApplyCommands(double t, ProxyReport& report);
+
+  ProxyLoopOptions options_;
+  std::vector<ProxyChannel> channels_;
+  std::vector<RealtimeLink*> links_;
+  LinkSet link_set_;
+  std::vector<CommandWatchdog> watchdogs_;
+  std::vector<Vector3> held_W_;  // per channel: the force applied since its last state
+  std::vector<DeviceKind> kinds_;
+  std::vector<DeviceReading> readings_;  // per channel: this tick's
+  LatencyStats rtt_;
+  LatencyStats wire_rtt_;
+  LatencyStats lateness_;
+};
+
+}  // namespace hapticd::proxy

@@ -1,0 +1,180 @@
+#include "clients/cpp/proxy_loop.h"
+
+#include <arpa/inet.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <functional>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "clients/cpp/sim_device_driver.h"
+
+namespace hapticd::proxy {
+namespace {
+
+constexpr uint32_t kSession = 77;
+
+net::SessionKey TestKey() {
+  net::SessionKey key;
+  for (std::size_t i = 0; i < key.size(); ++i) key[i] = static_cast<uint8_t>(i * 7 + 1);
+  return key;
+}
+
+// A UDP peer on a loopback port, in a thread: each datagram that arrives is handed to
+// `respond`, which writes an answer into reply and returns its size (0: no answer).
+class Responder {
+ public:
+  using Respond = std::function<std::size_t(std::span<const uint8_t> datagram, std::span<uint8_t> reply)>;
+
+  explicit Responder(Respond respond) : respond_(std::move(respond)) {
+    fd_ = socket(AF_INET, SOCK_DGRAM, 0);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    bind(fd_, reinterpret_cast<sockaddr*>(&address), sizeof address);
+    socklen_t size = sizeof address;
+    getsockname(fd_, reinterpret_cast<sockaddr*>(&address), &size);
+    endpoint_ = asio::ip::udp::endpoint(asio::ip::address_v4::loopback(), ntohs(address.sin_port));
+    thread_ = std::thread([this] { Serve(); });
+  }
+  ~Responder() {
+    stop_.store(true);
+    thread_.join();
+    close(fd_);
+  }
+
+  const asio::ip::udp::endpoint& endpoint() const { return endpoint_; }
+
+ private:
+  void Serve() {
+    std::array<uint8_t, 2048> in;
+    std::array<uint8_t, 2048> out;
+    while (!stop_.load()) {
+      pollfd waiter{fd_, POLLIN, 0};
+      if (poll(&waiter, 1, 20) <= 0) continue;
+      sockaddr_in peer{};
+      socklen_t size = sizeof peer;
+      const ssize_t n = recvfrom(fd_, in.data(), in.size(), 0, reinterpret_cast<sockaddr*>(&peer), &size);
+      if (n <= 0) continue;
+      const std::size_t reply = respond_({in.data(), static_cast<std::size_t>(n)}, out);
+      if (reply > 0) sendto(fd_, out.data(), reply, 0, reinterpret_cast<sockaddr*>(&peer), size);
+    }
+  }
+
+  Respond respond_;
+  int fd_;
+  asio::ip::udp::endpoint endpoint_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+DeviceCaps HeldCaps() {
+  DeviceCaps caps;
+  caps.start_W = Vector3(0.05, 0, -0.002);
+  return caps;
+}
+
+ProxyLoopOptions ShortRun(double seconds) {
+  ProxyLoopOptions options;
+  options.seconds = seconds;
+  return options;
+}
+
+// Against an echo every state comes back: nothing is lost, each tick sends one state per
+// device, and no force is rendered.
+TEST(ProxyLoop, EchoAnswersEveryState) {
+  Responder echo([](std::span<const uint8_t> in, std::span<uint8_t> out) {
+    std::copy(in.begin(), in.end(), out.begin());
+    return in.size();
+  });
+  HeldDeviceDriver first(HeldCaps());
+  HeldDeviceDriver second(HeldCaps());
+  RealtimeLink a(1, TestKey(), echo.endpoint(), LinkPeer::kEcho);
+  RealtimeLink b(2, TestKey(), echo.endpoint(), LinkPeer::kEcho);
+  ProxyLoop loop(ShortRun(0.05), {{&first, &a}, {&second, &b}});
+  const ProxyReport report = loop.Run();
+
+  EXPECT_EQ(report.ticks + report.skipped_ticks, 50);
+  EXPECT_EQ(report.packets.sent, 2u * report.ticks);
+  EXPECT_EQ(report.packets.lost(), 0u);
+  EXPECT_EQ(report.packets.bad + report.packets.stale, 0u);
+  EXPECT_EQ(report.rtt.count, report.packets.answered);
+  EXPECT_EQ(report.lateness.count, static_cast<std::size_t>(report.ticks));
+  EXPECT_GT(report.rtt.p50, 0);
+  EXPECT_LE(report.rtt.p50, report.rtt.max);
+  EXPECT_EQ(report.max_force_n, 0);
+  EXPECT_EQ(report.contacts, 0);
+}
+
+// A server that answers each state with 3 N up and contact: the device renders it, and
+// every state after the first reports that force as held.
+TEST(ProxyLoop, RendersTheServersForceAndReportsItHeld) {
+  std::atomic<int> wrong_held{0};
+  std::atomic<int> states{0};
+  Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
+    thread_local net::DatagramCodec codec;
+    net::DeviceStateSample state;
+    if (!net::CheckTag(in, TestKey()) || codec.ParseState(in, state) != net::DatagramError::kNone) return 0;
+    // the first state holds nothing yet; a late answer may leave a later one at zero too
+    const bool held_ok = state.f_held_W == Vector3(0, 0, 3) || state.f_held_W == Vector3::Zero();
+    if (!held_ok || state.session_id != kSession || state.sequence != static_cast<uint64_t>(states + 1)) ++wrong_held;
+    ++states;
+    net::DeviceCommandSample command;
+    command.session_id = kSession;
+    command.sequence = state.sequence;
+    command.echo_send_time_ns = state.send_time_ns;
+    command.f_W = Vector3(0, 0, 3);
+    command.contact = true;
+    return codec.EncodeCommand(command, TestKey(), out);
+  });
+  HeldDeviceDriver device(HeldCaps());
+  RealtimeLink link(kSession, TestKey(), server.endpoint());
+  ProxyLoop loop(ShortRun(0.05), {{&device, &link}});
+  const ProxyReport report = loop.Run();
+
+  EXPECT_EQ(wrong_held.load(), 0);
+  EXPECT_EQ(static_cast<uint64_t>(states.load()), report.packets.sent);
+  EXPECT_EQ(device.last_output().f_W, Vector3(0, 0, 3));
+  EXPECT_EQ(report.max_force_n, 3);
+  EXPECT_EQ(report.contacts, static_cast<int64_t>(report.packets.answered));
+  EXPECT_EQ(report.packets.lost(), 0u);
+}
+
+// A peer that never answers: every state is lost, and the device watchdog trips once
+// and takes the force to zero.
+TEST(ProxyLoop, ASilentServerTripsTheWatchdog) {
+  Responder silent([](std::span<const uint8_t>, std::span<uint8_t>) -> std::size_t { return 0; });
+  HeldDeviceDriver device(HeldCaps());
+  RealtimeLink link(kSession, TestKey(), silent.endpoint());
+  ProxyLoopOptions options = ShortRun(0.04);
+  options.budget_ns = 100'000;
+  options.hold_s = 0.01;
+  options.ramp_s = 0.01;
+  ProxyLoop loop(options, {{&device, &link}});
+  const ProxyReport report = loop.Run();
+
+  EXPECT_EQ(report.packets.answered, 0u);
+  EXPECT_EQ(report.packets.lost(), report.packets.sent);
+  EXPECT_EQ(report.rtt.count, 0u);
+  EXPECT_EQ(report.watchdog_trips, 1u);
+  EXPECT_EQ(device.last_output().f_W, Vector3::Zero());
+}
+
+// A stop flag already set: no tick runs.
+TEST(ProxyLoop, StopsWhenAsked) {
+  Responder silent([](std::span<const uint8_t>, std::span<uint8_t>) -> std::size_t { return 0; });
+  HeldDeviceDriver device(HeldCaps());
+  RealtimeLink link(kSession, TestKey(), silent.endpoint());
+  ProxyLoop loop(ShortRun(10), {{&device, &link}});
+  const std::atomic<bool> stop{true};
+  const ProxyReport report = loop.Run(&stop);
+  EXPECT_EQ(report.ticks, 0);
+  EXPECT_EQ(report.packets.sent, 0u);
+}
+
+}  // namespace
+}  // namespace hapticd::proxy
