@@ -5,27 +5,12 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
 #include <optional>
 
 #include <gtest/gtest.h>
 
 #include "clients/cpp/tick_schedule.h"
-
-// Counts heap allocations in this test program, to show a tick's link work makes none.
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size ? size : 1)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#include "server/net/test/count_allocations.h"
 
 namespace hapticd::proxy {
 namespace {
@@ -234,15 +219,15 @@ TEST_F(LinkFixture, ATickAllocatesNothing) {
   ASSERT_TRUE(AwaitOne(set));
   for (int tick = 0; tick < 20; ++tick) {
     net::DeviceStateSample state;
-    const long before = g_allocations.load();
+    const long before = hapticd::testing::AllocationCount();
     ASSERT_TRUE(link.Send(state));
-    const long after_send = g_allocations.load();
+    const long after_send = hapticd::testing::AllocationCount();
     EXPECT_EQ(after_send, before);
     server.ReceiveState(key);
     server.SendCommand(state.sequence, key);
-    const long before_wait = g_allocations.load();
+    const long before_wait = hapticd::testing::AllocationCount();
     ASSERT_EQ(set.AwaitAll(MonotonicNowNs() + 1'000'000'000), 1);
-    EXPECT_EQ(g_allocations.load(), before_wait);
+    EXPECT_EQ(hapticd::testing::AllocationCount(), before_wait);
   }
 }
 

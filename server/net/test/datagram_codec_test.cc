@@ -1,25 +1,11 @@
 #include "server/net/datagram_codec.h"
 
-#include <atomic>
-#include <cstdlib>
-#include <new>
 #include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-// Counts heap allocations in this test program, to show the codec makes none.
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size ? size : 1)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+#include "server/net/test/count_allocations.h"
 
 namespace hapticd::net {
 namespace {
@@ -142,7 +128,7 @@ TEST(DatagramCodec, AllocatesNothingAfterConstruction) {
   DeviceStateSample state;
   DeviceCommandSample command;
   command.f_W = {1, 2, 3};
-  const long before = g_allocations.load();
+  const long before = hapticd::testing::AllocationCount();
   for (int i = 0; i < 1000; ++i) {
     const std::size_t size = codec.EncodeState(MakeState(), key, buffer);
     ASSERT_EQ(codec.ParseState({buffer.data(), size}, state), DatagramError::kNone);
@@ -150,7 +136,7 @@ TEST(DatagramCodec, AllocatesNothingAfterConstruction) {
     const std::size_t command_size = codec.EncodeCommand(command, key, buffer);
     ASSERT_EQ(codec.ParseCommand({buffer.data(), command_size}, command), DatagramError::kNone);
   }
-  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_EQ(hapticd::testing::AllocationCount() - before, 0);
 }
 
 TEST(DatagramCodec, SessionKeysAreRandom) {

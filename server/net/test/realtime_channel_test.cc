@@ -8,20 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include "server/net/test/count_allocations.h"
 #include "server/net/test/net_harness.h"
-
-// Counts heap allocations in this program, to show the realtime path makes none.
-namespace {
-std::atomic<long> g_allocations{0};
-}  // namespace
-
-void* operator new(std::size_t size) {
-  g_allocations.fetch_add(1, std::memory_order_relaxed);
-  if (void* p = std::malloc(size ? size : 1)) return p;
-  throw std::bad_alloc();
-}
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace hapticd::net {
 namespace {
@@ -278,7 +266,9 @@ TEST_F(RealtimeChannelTest, ManySessionsAreServedSideBySide) {
       const auto command = Exchange(device, sessions[i], StateAt(round, {0, 0, 0.05 - depth}));
       ASSERT_TRUE(command);
       EXPECT_EQ(command->session_id, sessions[i].id);
-      if (round > 1) EXPECT_NEAR(command->f_W.z(), 1000 * depth, 1e-5);
+      if (round > 1) {
+        EXPECT_NEAR(command->f_W.z(), 1000 * depth, 1e-5);
+      }
     }
   }
 }
@@ -287,19 +277,19 @@ TEST_F(RealtimeChannelTest, ManySessionsAreServedSideBySide) {
 // the sessions open, nothing on either side of the socket allocates.
 TEST_F(RealtimeChannelTest, TheRealtimePathAllocatesNothing) {
   const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
-  const OpenedSession sphere = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
+  const OpenedSession second = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
   DeviceSocket device(harness_.realtime.local_endpoint().port());
   ASSERT_TRUE(Exchange(device, session, StateAt(1, {0, 0, 0.06})));
-  ASSERT_TRUE(Exchange(device, sphere, StateAt(1, {0, 0, 0.06})));
+  ASSERT_TRUE(Exchange(device, second, StateAt(1, {0, 0, 0.06})));
 
   // From here the test itself uses only preallocated buffers.
   std::array<uint8_t, kMaxDatagramSize> out;
   std::array<uint8_t, kMaxDatagramSize> forged;
-  const long before = g_allocations.load();
+  const long before = hapticd::testing::AllocationCount();
   int answered = 0;
   for (uint64_t sequence = 2; sequence < 500; ++sequence) {
     DeviceStateSample state = StateAt(sequence, {0.001 * (sequence % 7), 0, 0.05 - 1e-5 * sequence});
-    for (const OpenedSession* s : {&session, &sphere}) {
+    for (const OpenedSession* s : {&session, &second}) {
       state.session_id = s->id;
       const std::size_t size = codec_.EncodeState(state, s->key, out);
       device.SendRaw({out.data(), size});
@@ -316,7 +306,7 @@ TEST_F(RealtimeChannelTest, TheRealtimePathAllocatesNothing) {
   }
   // Then silence long enough for both watchdogs to ramp to zero.
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
-  EXPECT_EQ(g_allocations.load() - before, 0);
+  EXPECT_EQ(hapticd::testing::AllocationCount() - before, 0);
   EXPECT_GE(answered, 900);
   EXPECT_GE(harness_.realtime.counters().bad_tag.load(), 900u);
   EXPECT_GE(harness_.realtime.counters().replayed.load(), 900u);
