@@ -3,6 +3,7 @@ import os
 import pathlib
 
 import pytest
+from server_process import running_server
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 
@@ -19,3 +20,10 @@ def shared_dir() -> pathlib.Path:
     path = pathlib.Path(os.environ.get("HAPTICD_SHARED", REPO.parent / "shared"))
     assert (path / "conformance").is_dir(), f"no conformance cases under {path}"
     return path
+
+
+@pytest.fixture(scope="module")
+def server(bin_dir):
+    """A hapticd process on its default scene for one test module (server_process.py)."""
+    with running_server(bin_dir, "--log-level", "warning") as process:
+        yield process

@@ -26,12 +26,6 @@ TOP = 0.1  # the box's top face, z (m)
 ABOVE = (0.0, 0.0, 0.12)
 
 
-@pytest.fixture(scope="module")
-def server(bin_dir):
-    with running_server(bin_dir, "--log-level", "warning") as process:
-        yield process
-
-
 @pytest.fixture
 def client(server):
     """A client on a scene of two boxes: "box" (k 2000 N/m) centred at (0, 0, 0.05) and

@@ -26,12 +26,6 @@ MATERIAL = {"stiffness": STIFFNESS}
 TETRA = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]], dtype=np.float64)
 
 
-@pytest.fixture(scope="module")
-def server(bin_dir):
-    with running_server(bin_dir, "--log-level", "warning") as process:
-        yield process
-
-
 @pytest.fixture
 def client(server):
     with hapticd.connect(server.tcp, timeout_s=10) as connected:
