@@ -18,11 +18,14 @@ using hapticd::net::LogLevel;
 // The initial scene: the file's, or the embedded default.
 hapticd::scene::SceneBuilder LoadInitialScene(const hapticd::app::ServerOptions& options) {
   if (options.scene_file.empty()) {
-    hapticd::scene::SceneBuilder builder;
+    hapticd::scene::SceneSettings settings;
+    settings.ray_backend = options.ray_backend;
+    hapticd::scene::SceneBuilder builder(settings);
     for (const auto& spec : hapticd::app::MakeDefaultScene()) builder.Add(spec);
     return builder;
   }
-  const hapticd::sim::SceneFile file = hapticd::sim::LoadSceneFile(options.scene_file);
+  hapticd::sim::SceneFile file = hapticd::sim::LoadSceneFile(options.scene_file);
+  file.settings.ray_backend = options.ray_backend;
   hapticd::scene::SceneBuilder builder(file.settings);
   for (const auto& spec : file.objects) builder.Add(spec);
   return builder;

@@ -38,6 +38,9 @@ options:
   --scene FILE              start on this scene file ({"scene": {...}} in the scenario
                             format of shared/scenarios/FORMAT.md) instead of the
                             embedded default scene
+  --ray-backend B           native or embree: what answers the meshes' segment and
+                            closest-point queries unless an object names its own
+                            (the same answers; default native)
   --max-sessions N          device sessions held at once (default 256)
   --realtime-priority N     SCHED_FIFO priority of the realtime thread (default 20;
                             0: normal scheduling; needs CAP_SYS_NICE, else normal)
@@ -70,6 +73,14 @@ ServerOptions ParseServerOptions(std::span<const std::string_view> args) {
       options.udp_port = ReadInt(option, value, 0, 65535);
     } else if (option == "--scene") {
       options.scene_file = value;
+    } else if (option == "--ray-backend") {
+      if (value == "native") {
+        options.ray_backend = scene::RayBackend::kNative;
+      } else if (value == "embree") {
+        options.ray_backend = scene::RayBackend::kEmbree;
+      } else {
+        throw OptionsError(fmt::format("--ray-backend is \"{}\"; it must be native or embree", value));
+      }
     } else if (option == "--max-sessions") {
       options.max_sessions = ReadInt(option, value, 1, net::kMaxSessions);
     } else if (option == "--realtime-priority") {

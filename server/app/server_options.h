@@ -7,6 +7,7 @@
 #include <string>
 #include <string_view>
 #include "server/net/log.h"
+#include "server/scene/shape.h"
 
 namespace hapticd::app {
 
@@ -21,6 +22,7 @@ struct ServerOptions {
   int tcp_port = 7460;  // 0: any free port
   int udp_port = 7461;
   std::string scene_file;  // empty: the embedded default scene
+  scene::RayBackend ray_backend = scene::RayBackend::kNative;  // meshes' default backend
   int max_sessions = 256;
   int realtime_priority = 20;  // SCHED_FIFO priority of the realtime thread; 0: normal
   std::string tls_certificate;  // PEM chain; with tls_key turns TLS on

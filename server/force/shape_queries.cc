@@ -6,6 +6,7 @@
 
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/gjk.h"
+#include "server/embree/embree_closest_point.h"
 #include "server/geometry/mesh_queries.h"
 #include "server/geometry/sphere_sweep.h"
 
@@ -124,16 +125,22 @@ ShapeProbe ProbeConvex(const ConvexHull& hull, const Vector3& p) {
   return probe;
 }
 
+// The mesh's closest point within max_distance, from its backend (the same answer).
+geometry::MeshClosestPoint FindClosestPoint(const MeshShape& shape, const Vector3& p, double max_distance) {
+  return shape.embree ? embree::FindClosestPointOnMesh(*shape.embree, p, max_distance)
+                      : geometry::FindClosestPointOnMesh(*shape.bvh, p, max_distance);
+}
+
 // The closest surface point, then the side of p against the closest feature's
 // angle-weighted pseudo-normal (Baerentzen & Aanaes 2005). A point deeper inside a
 // closed mesh than max_distance is still found, by the inside test.
-ShapeProbe ProbeMesh(const MeshBvh& bvh, const Vector3& p, double max_distance) {
+ShapeProbe ProbeMesh(const MeshShape& shape, const Vector3& p, double max_distance) {
   ShapeProbe probe;
-  const geometry::TriangleMesh& mesh = bvh.mesh();
-  geometry::MeshClosestPoint closest = geometry::FindClosestPointOnMesh(bvh, p, max_distance);
+  const geometry::TriangleMesh& mesh = shape.bvh->mesh();
+  geometry::MeshClosestPoint closest = FindClosestPoint(shape, p, max_distance);
   if (!closest.found) {
     if (!mesh.is_closed() || !mesh.bounds().Contains(p)) return probe;
-    const geometry::MeshSignedDistance inside = geometry::CalcSignedDistanceToMesh(bvh, p);
+    const geometry::MeshSignedDistance inside = geometry::CalcSignedDistanceToMesh(*shape.bvh, p);
     if (!inside.inside) return probe;
     closest = inside.closest;
   }
@@ -190,13 +197,13 @@ ShapeSweep SweepConvex(const scene::Shape& shape, const Vector3& a, const Vector
 // the same first contact as a full sweep, except that a sphere resting within
 // kRestingGap of the nearest triangle and moving into it (deeper than the sweep's skin,
 // geometry::CalcSphereSweepSkin) stops at t = 0 at once.
-ShapeSweep SweepMesh(const MeshBvh& bvh, const Vector3& a, const Vector3& b, double r) {
+ShapeSweep SweepMesh(const MeshShape& shape, const Vector3& a, const Vector3& b, double r) {
+  const MeshBvh& bvh = *shape.bvh;
   ShapeSweep sweep;
   Vector3 end = b;
   geometry::SphereSweepHit bound;
   if (r > 0) {
-    const geometry::MeshClosestPoint nearest =
-        geometry::FindClosestPointOnMesh(bvh, a, r + (b - a).norm());
+    const geometry::MeshClosestPoint nearest = FindClosestPoint(shape, a, r + (b - a).norm());
     if (nearest.found && nearest.distance <= r + kRestingGap) {
       const Vector3 pseudo_normal = bvh.mesh().FeatureNormal(nearest.triangle, nearest.feature);
       const Vector3 normal = UnitOr(a - nearest.point, pseudo_normal);
@@ -244,7 +251,7 @@ ShapeProbe ProbeShape(const scene::Shape& shape, const Vector3& p_B, double max_
     case scene::ShapeType::kPlane: probe = ProbePlane(p_B); break;
     case scene::ShapeType::kConvex: probe = ProbeConvex(*std::get<ConvexShape>(shape).hull, p_B); break;
     case scene::ShapeType::kMesh:
-      return ProbeMesh(*std::get<MeshShape>(shape).bvh, p_B, max_distance);
+      return ProbeMesh(std::get<MeshShape>(shape), p_B, max_distance);
     case scene::ShapeType::kCount: return {};
   }
   if (probe.signed_distance > max_distance) probe.found = false;
@@ -255,7 +262,7 @@ ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const
                             double r) {
   if (!a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || a_B == b_B) return {};
   if (scene::TypeOf(shape) != scene::ShapeType::kMesh) return SweepConvex(shape, a_B, b_B, r);
-  return SweepMesh(*std::get<MeshShape>(shape).bvh, a_B, b_B, r);
+  return SweepMesh(std::get<MeshShape>(shape), a_B, b_B, r);
 }
 
 Vector3 CalcShadingNormal(const scene::Shape& shape, int triangle, const Vector3& point_B,

@@ -141,6 +141,14 @@ scene::ObjectSpec ReadObject(const v1::Object& object, const std::string& field)
   spec.motion = object.kinematic() ? scene::Motion::kKinematic : scene::Motion::kStatic;
   spec.v_WB = ReadVector(object.velocity(), field + ".velocity");
   spec.w_WB = ReadVector(object.angular_velocity(), field + ".angular_velocity");
+  switch (object.ray_backend()) {
+    case v1::RAY_BACKEND_DEFAULT: break;
+    case v1::RAY_BACKEND_NATIVE: spec.ray_backend = scene::RayBackend::kNative; break;
+    case v1::RAY_BACKEND_EMBREE: spec.ray_backend = scene::RayBackend::kEmbree; break;
+    default:
+      throw BadRequest(fmt::format("{}.ray_backend is {}; it must be default, native or embree", field,
+                                   static_cast<int>(object.ray_backend())));
+  }
   if (!object.kinematic() && (!spec.v_WB.isZero(0) || !spec.w_WB.isZero(0))) {
     throw BadRequest(field + " is static but has a velocity; set kinematic to move it");
   }
@@ -238,6 +246,8 @@ void WriteObjectInfo(const scene::SceneObject& object, v1::ObjectInfo* out) {
   out->set_kinematic(object.motion == scene::Motion::kKinematic);
   if (const auto* mesh = std::get_if<scene::MeshShape>(&object.shape)) {
     out->set_triangles(static_cast<uint32_t>(mesh->bvh->mesh().num_triangles()));
+    out->set_ray_backend(std::string(
+        scene::RayBackendName(mesh->embree ? scene::RayBackend::kEmbree : scene::RayBackend::kNative)));
   }
 }
 

@@ -7,6 +7,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "server/embree/embree_device.h"
+#include "server/embree/embree_mesh.h"
 #include "server/geometry/convex_hull.h"
 #include "server/scene/value_text.h"
 
@@ -203,14 +205,35 @@ const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
     throw SceneError(ObjectField(spec.name) + " already exists");
   }
   SceneObject object = MakeObject(spec, settings_);
+  AttachRayBackend(spec, object);
   objects_.push_back(std::move(object));
   return objects_.back();
 }
 
 const SceneObject& SceneBuilder::Update(const ObjectSpec& spec) {
   SceneObject& target = FindOrThrow(spec.name);
-  target = MakeObject(spec, settings_);
+  SceneObject object = MakeObject(spec, settings_);
+  AttachRayBackend(spec, object);
+  target = std::move(object);
   return target;
+}
+
+void SceneBuilder::AttachRayBackend(const ObjectSpec& spec, SceneObject& object) {
+  const RayBackend backend = spec.ray_backend.value_or(settings_.ray_backend);
+  if (static_cast<int>(backend) < 0 || backend >= RayBackend::kCount) {
+    throw SceneError(ObjectField(spec.name) + ".ray_backend is " + std::to_string(static_cast<int>(backend)) +
+                     "; it must be native or embree");
+  }
+  auto* mesh = std::get_if<MeshShape>(&object.shape);
+  if (mesh == nullptr || backend != RayBackend::kEmbree) return;
+  // One Embree device for all of this builder's meshes, made when first needed.
+  try {
+    if (!embree_device_) embree_device_ = std::make_shared<const embree::EmbreeDevice>();
+    mesh->embree = std::make_shared<const embree::EmbreeMesh>(embree_device_, mesh->bvh);
+  } catch (const std::exception& e) {
+    throw SceneError(ObjectField(spec.name) + ".ray_backend is embree, but Embree cannot hold this mesh: " +
+                     e.what());
+  }
 }
 
 void SceneBuilder::Remove(std::string_view name) {

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -15,6 +16,10 @@
 
 #include "server/geometry/triangle_mesh.h"
 #include "server/scene/scene_snapshot.h"
+
+namespace hapticd::embree {
+class EmbreeDevice;
+}  // namespace hapticd::embree
 
 namespace hapticd::scene {
 
@@ -46,6 +51,8 @@ struct ObjectSpec {
   Motion motion = Motion::kStatic;
   Vector3 v_WB = Vector3::Zero();  // kinematic only
   Vector3 w_WB = Vector3::Zero();
+  // A mesh's backend, when not the scene's (SceneSettings::ray_backend).
+  std::optional<RayBackend> ray_backend;
 };
 
 class SceneBuilder {
@@ -73,9 +80,13 @@ class SceneBuilder {
 
  private:
   SceneObject& FindOrThrow(std::string_view name);
+  // Puts a mesh object on the Embree backend when its spec or the scene asks for it.
+  void AttachRayBackend(const ObjectSpec& spec, SceneObject& object);
 
   SceneSettings settings_;
   std::vector<SceneObject> objects_;
+  // Created when the first mesh asks for the Embree backend; shared by its meshes.
+  std::shared_ptr<const embree::EmbreeDevice> embree_device_;
 };
 
 }  // namespace hapticd::scene

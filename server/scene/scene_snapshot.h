@@ -16,6 +16,8 @@ namespace hapticd::scene {
 struct SceneSettings {
   // How far (m) a cheaper representation of a mesh may be from the mesh.
   double tolerance = 1e-4;
+  // The backend of the objects kept as meshes, unless an object names its own.
+  RayBackend ray_backend = RayBackend::kNative;
 };
 
 class SceneSnapshot {

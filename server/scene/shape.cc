@@ -35,6 +35,15 @@ Aabb PlaneBounds(const Pose& X_WB) {
 
 }  // namespace
 
+std::string_view RayBackendName(RayBackend backend) {
+  switch (backend) {
+    case RayBackend::kNative: return "native";
+    case RayBackend::kEmbree: return "embree";
+    case RayBackend::kCount: break;
+  }
+  return "unknown";
+}
+
 std::string_view ShapeTypeName(ShapeType type) {
   switch (type) {
     case ShapeType::kSphere: return "sphere";

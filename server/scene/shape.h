@@ -13,6 +13,10 @@
 #include "server/geometry/convex_hull.h"
 #include "server/scene/pose.h"
 
+namespace hapticd::embree {
+class EmbreeMesh;
+}  // namespace hapticd::embree
+
 namespace hapticd::scene {
 
 // A ball of radius > 0 centred on B's origin.
@@ -35,10 +39,18 @@ struct PlaneShape {};
 struct ConvexShape {
   std::shared_ptr<const geometry::ConvexHull> hull;
 };
+// Which code answers a mesh's segment and closest-point queries: the native BVH, or
+// Embree's BVH deciding with the same exact tests (server/embree; same answers).
+enum class RayBackend { kNative, kEmbree, kCount };
+// "native", "embree".
+std::string_view RayBackendName(RayBackend backend);
+
 // A triangle mesh in B with its BVH. Closed meshes are solids (inside means something);
-// open meshes are surfaces whose back side faces away from their normals.
+// open meshes are surfaces whose back side faces away from their normals. With the
+// Embree backend, `embree` is the same mesh in an Embree scene (null for native).
 struct MeshShape {
   std::shared_ptr<const geometry::MeshBvh> bvh;
+  std::shared_ptr<const embree::EmbreeMesh> embree;
 };
 
 using Shape = std::variant<SphereShape, BoxShape, CapsuleShape, PlaneShape, ConvexShape, MeshShape>;

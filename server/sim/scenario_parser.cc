@@ -156,7 +156,7 @@ scene::Material ReadMaterial(const JsonAt& at) {
 
 ObjectSpec ReadObject(const JsonAt& at, const std::filesystem::path& base_dir) {
   const JsonObject object(
-      at, {"name", "shape", "position", "rotation", "material", "motion", "representation"});
+      at, {"name", "shape", "position", "rotation", "material", "motion", "representation", "ray_backend"});
   ObjectSpec spec;
   spec.name = ReadString(object.Required("name"));
   spec.shape = ReadShape(object.Required("shape"), base_dir);
@@ -180,6 +180,11 @@ ObjectSpec ReadObject(const JsonAt& at, const std::filesystem::path& base_dir) {
     }
     mesh->pin = ReadEnum<scene::Representation>(
         *representation, NamesOf(scene::Representation::kMesh, scene::RepresentationName));
+  }
+  // extension: the backend of a mesh's queries
+  if (const auto backend = object.Optional("ray_backend")) {
+    spec.ray_backend =
+        ReadEnum<scene::RayBackend>(*backend, NamesOf(scene::RayBackend::kEmbree, scene::RayBackendName));
   }
   return spec;
 }

@@ -15,7 +15,8 @@
 //     (AdmittanceSettings' 1 kg and 20 N·s/m);
 // everything else is required. Extensions (bench/scenarios/README.md): an object's
 // "motion" {"velocity", "angular_velocity"} (both optional, default 0) makes it
-// kinematic; a mesh object's "representation" pins its representation; the material's
+// kinematic; a mesh object's "representation" pins its representation and its
+// "ray_backend" ("native" or "embree") picks its query backend; the material's
 // "force_shading"; the scene's "tolerance".
 
 #include <filesystem>

@@ -40,6 +40,9 @@ TEST(ServerOptions, NamesTheBadOption) {
   EXPECT_EQ(ErrorOf({"--log-level", "loud"}), "--log-level is \"loud\"; it must be debug, info, warning or error");
   EXPECT_EQ(ErrorOf({"--host", "localhost"}), "--host is \"localhost\"; it is not an IP address");
   EXPECT_EQ(ErrorOf({"--tls-cert", "c.pem"}), "--tls-cert and --tls-key go together; give both or neither");
+  EXPECT_EQ(ErrorOf({"--ray-backend", "optix"}), "--ray-backend is \"optix\"; it must be native or embree");
+  EXPECT_EQ(Parse({"--ray-backend", "embree"}).ray_backend, scene::RayBackend::kEmbree);
+  EXPECT_EQ(Parse({}).ray_backend, scene::RayBackend::kNative);
 }
 
 TEST(ServerOptions, LeavingLoopbackNeedsTlsAndAToken) {

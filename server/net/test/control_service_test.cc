@@ -69,13 +69,24 @@ TEST(ControlService, MeshesArriveAsFlatArraysAndAreChecked) {
   for (uint32_t i : {0u, 2u, 1u, 0u, 1u, 3u, 0u, 3u, 2u, 1u, 2u, 3u}) mesh->add_triangles(i);
   mesh->set_representation(v1::REPRESENTATION_MESH);
   ASSERT_TRUE(harness.Call(Add(tetra)).has_done());
+  tetra.set_name("tetra_on_embree");
+  tetra.set_ray_backend(v1::RAY_BACKEND_EMBREE);
+  ASSERT_TRUE(harness.Call(Add(tetra)).has_done());
   v1::Request get;
   get.mutable_get_scene();
   const v1::Reply scene = harness.Call(get);
-  ASSERT_EQ(scene.scene().objects_size(), 3);
+  ASSERT_EQ(scene.scene().objects_size(), 4);
   EXPECT_EQ(scene.scene().objects(2).shape(), "mesh");
   EXPECT_EQ(scene.scene().objects(2).representation(), "mesh");
   EXPECT_EQ(scene.scene().objects(2).triangles(), 4u);
+  EXPECT_EQ(scene.scene().objects(2).ray_backend(), "native");
+  EXPECT_EQ(scene.scene().objects(3).ray_backend(), "embree");
+  EXPECT_EQ(scene.scene().objects(0).ray_backend(), "");  // the box is no mesh
+  tetra.set_name("tetra_elsewhere");
+  tetra.set_ray_backend(static_cast<v1::RayBackend>(9));
+  ExpectError(harness.Call(Add(tetra)), v1::Error::CODE_BAD_REQUEST,
+              "add_object.object.ray_backend is 9; it must be default, native or embree");
+  tetra.set_ray_backend(v1::RAY_BACKEND_DEFAULT);
 
   mesh->set_triangles(4, 9);
   tetra.set_name("tetra2");

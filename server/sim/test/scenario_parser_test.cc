@@ -193,6 +193,11 @@ TEST(ParseScenario, MeshesInlineFromFilesAndExtensions) {
   EXPECT_EQ(mesh.vertices.size(), 4u);
   EXPECT_EQ(mesh.triangles[3], (std::array<int, 3>{1, 2, 3}));
   EXPECT_EQ(mesh.pin, scene::Representation::kConvex);
+  EXPECT_FALSE(from_file.objects[0].ray_backend.has_value());
+  const Scenario on_embree = Parse({mesh_file, "scene.objects.0.ray_backend=embree"}, dir);
+  EXPECT_EQ(on_embree.objects[0].ray_backend, scene::RayBackend::kEmbree);
+  EXPECT_EQ(ErrorWith({"scene.objects.0.ray_backend=optix"}),
+            "scene.objects[0].ray_backend is \"optix\"; it must be one of native, embree");
 
   const Scenario inline_mesh = Parse(
       {R"(scene.objects.0.shape={"type": "mesh", "vertices": [[0,0,0],[1,0,0],[0,1,0]], "triangles": [[0,1,2]]})"});

@@ -14,6 +14,7 @@ from hapticd.objects import (
     Capsule,
     Convex,
     Material,
+    Mesh,
     ObjectSpec,
     Plane,
     Pose,
@@ -40,6 +41,11 @@ REPRESENTATION_VALUES = {
     "capsule": pb.REPRESENTATION_CAPSULE,
     "convex": pb.REPRESENTATION_CONVEX,
     "mesh": pb.REPRESENTATION_MESH,
+}
+RAY_BACKEND_VALUES = {
+    "default": pb.RAY_BACKEND_DEFAULT,
+    "native": pb.RAY_BACKEND_NATIVE,
+    "embree": pb.RAY_BACKEND_EMBREE,
 }
 SESSION_STATE_NAMES = {
     pb.SESSION_STATE_UNSPECIFIED: "unspecified",
@@ -170,6 +176,8 @@ def fill_object(target: pb.Object, spec: ObjectSpec) -> None:
     target.pose.CopyFrom(pose_message(spec.pose))
     target.material.CopyFrom(material_message(spec.material))
     target.kinematic = spec.kinematic
+    if isinstance(spec.shape, Mesh):
+        target.ray_backend = RAY_BACKEND_VALUES[spec.shape.ray_backend]
     if spec.kinematic:
         target.velocity.CopyFrom(vec3(spec.velocity))
         target.angular_velocity.CopyFrom(vec3(spec.angular_velocity))
@@ -197,6 +205,7 @@ def scene_from(message: pb.SceneDescription) -> SceneInfo:
             material=material_from(info.material),
             kinematic=info.kinematic,
             triangles=info.triangles,
+            ray_backend=info.ray_backend,
         )
         for info in message.objects
     ]

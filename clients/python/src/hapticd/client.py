@@ -212,16 +212,19 @@ class Client:
         vertices: ArrayLike,
         triangles: ArrayLike,
         representation: str = "auto",
+        ray_backend: str = "default",
         **placement: Unpack[Placement],
     ) -> int:
         """Adds a triangle mesh: vertices (m, (N, 3)) and triangles ((M, 3) integer vertex
         indices, counter-clockwise seen from outside), rendered as `representation`
         ("auto": the cheapest within the scene's tolerance, or sphere, box, capsule,
-        convex, mesh)."""
+        convex, mesh); kept as a mesh, its queries run on `ray_backend` ("default": the
+        server's, "native" or "embree")."""
         mesh = Mesh(
             check.as_floats(vertices, "vertices"),
             check.as_indices(triangles, "triangles"),
             representation,
+            ray_backend,
         )
         return self._add(name, mesh, placement)
 

@@ -17,6 +17,7 @@ from hapticd._validate import FloatArray, IndexArray
 from hapticd.errors import LocalError
 
 REPRESENTATIONS = ("auto", "sphere", "box", "capsule", "convex", "mesh")
+RAY_BACKENDS = ("default", "native", "embree")
 
 
 def _zeros() -> FloatArray:
@@ -134,12 +135,15 @@ class Convex:
 @dataclass(frozen=True, eq=False)
 class Mesh:
     """A triangle mesh in the body frame: vertices (m, shape (N, 3)), triangles (vertex
-    indices, shape (M, 3), counter-clockwise seen from outside) and the representation
-    the server should render it as ("auto": the cheapest within the scene's tolerance)."""
+    indices, shape (M, 3), counter-clockwise seen from outside), the representation
+    the server should render it as ("auto": the cheapest within the scene's tolerance)
+    and, kept as a mesh, the backend of its queries ("default": the server's; "native"
+    or "embree": the same answers)."""
 
     vertices: FloatArray
     triangles: IndexArray
     representation: str = "auto"
+    ray_backend: str = "default"
 
     def __post_init__(self) -> None:
         vertices = check.points(self.vertices, "vertices", minimum=3)
@@ -148,6 +152,7 @@ class Mesh:
             self, "triangles", check.triangles(self.triangles, "triangles", len(vertices))
         )
         check.choice(self.representation, "representation", REPRESENTATIONS)
+        check.choice(self.ray_backend, "ray_backend", RAY_BACKENDS)
 
 
 Shape = Sphere | Box | Capsule | Plane | Convex | Mesh

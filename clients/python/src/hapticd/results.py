@@ -15,7 +15,8 @@ from hapticd.objects import Material, Pose
 class ObjectInfo:
     """One object as the server holds it: its shape ("sphere", ..., "mesh"), the
     representation it renders it as and that representation's error bound (m), its
-    world bounds (infinite for a plane), pose, material, and a mesh's triangle count."""
+    world bounds (infinite for a plane), pose, material, and a mesh's triangle count
+    and query backend ("native" or "embree"; "" for the other shapes)."""
 
     name: str
     shape: str
@@ -27,6 +28,7 @@ class ObjectInfo:
     material: Material
     kinematic: bool
     triangles: int
+    ray_backend: str = ""
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,28 @@
+#pragma once
+
+// Closest point on an EmbreeMesh through rtcPointQuery. Embree's traversal hands over
+// every primitive whose grown box (embree_mesh.h) lies within the query radius of the
+// point; a callback computes the exact double-precision closest point on each
+// (FindClosestPointOnTriangle) and shrinks the radius to the best distance so far,
+// rounded up to float. The guard covers rounding the point to float, so no triangle
+// within the best distance is skipped and the answer equals the native one.
+//
+// Thread-safe, allocation-free, never throws. The point is in the mesh's frame.
+
+#include <limits>
+
+#include "server/embree/embree_mesh.h"
+#include "server/geometry/mesh_queries.h"
+#include "server/geometry/types.h"
+
+namespace hapticd::embree {
+
+// The point of the mesh closest to p within max_distance (closed), as
+// geometry::FindClosestPointOnMesh: infinite max_distance searches everywhere; negative
+// or NaN max_distance, or a non-finite p, finds nothing; where several points tie, any
+// one. A point beyond the mesh's trust bound is answered by the native BVH.
+geometry::MeshClosestPoint FindClosestPointOnMesh(
+    const EmbreeMesh& mesh, const geometry::Vector3& p,
+    double max_distance = std::numeric_limits<double>::infinity());
+
+}  // namespace hapticd::embree
