@@ -16,9 +16,11 @@ ctest --test-dir build --output-on-failure -j 2 --timeout 300
 echo "== unit tests under ASan+UBSan"
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   ctest --test-dir build/sanitize --output-on-failure -j 2 --timeout 600
-echo "== conformance"
-python3 "$HAPTICD_SHARED/conformance/check.py" --runner build/bin/hapticd-query \
-  "$HAPTICD_SHARED"/conformance/public/*.jsonl
+for backend in native embree; do
+  echo "== conformance, mesh ops on the $backend backend"
+  python3 "$HAPTICD_SHARED/conformance/check.py" --runner "build/bin/hapticd-query --ray-backend $backend" \
+    "$HAPTICD_SHARED"/conformance/public/*.jsonl
+done
 echo "== Python package: lint, types, unit tests"
 (cd clients/python && ../../.venv/bin/ruff check src tests && ../../.venv/bin/mypy)
 .venv/bin/python -m pytest -q clients/python/tests

@@ -8,9 +8,9 @@ import subprocess
 import pytest
 
 
-def run_query(bin_dir, lines, timeout=120):
+def run_query(bin_dir, lines, timeout=120, backend="native"):
     proc = subprocess.run(
-        [str(bin_dir / "hapticd-query")],
+        [str(bin_dir / "hapticd-query"), "--ray-backend", backend],
         input="".join(line + "\n" for line in lines),
         capture_output=True, text=True, timeout=timeout,
     )
@@ -107,3 +107,26 @@ def test_hostile_lines_get_error_answers(bin_dir, line):
         assert "error" in answers[0] and "result" not in answers[0]
     # the runner goes on with the next line
     assert answers[-1] == {"id": "after", "result": {"intersect": False}}
+
+
+def test_the_embree_backend_gives_the_native_answers(bin_dir, shared_dir):
+    """Every public mesh case through both backends: the same hit, t, distance and
+    inside answers (the triangle and the closest point may differ only where two tie,
+    as on a medial axis)."""
+    cases = [case for case in public_cases(shared_dir) if case["op"].endswith("_mesh")]
+    assert len(cases) == 450
+    lines = [json.dumps(case) for case in cases]
+    native = run_query(bin_dir, lines, backend="native")
+    embree = run_query(bin_dir, lines, backend="embree")
+    for case, a, b in zip(cases, native, embree, strict=True):
+        assert a.get("error") == b.get("error"), case["id"]
+        ra, rb = a.get("result", {}), b.get("result", {})
+        for key in ("hit", "t", "distance", "inside"):
+            assert ra.get(key) == rb.get(key), (case["id"], key, ra, rb)
+
+
+def test_an_unknown_backend_is_refused(bin_dir):
+    proc = subprocess.run([str(bin_dir / "hapticd-query"), "--ray-backend", "optix"],
+                          input="", capture_output=True, text=True, timeout=30)
+    assert proc.returncode == 2
+    assert "--ray-backend native|embree" in proc.stderr

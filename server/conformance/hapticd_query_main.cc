@@ -2,22 +2,34 @@
 // writes one JSON answer per line on stdout, in order (../shared/conformance/FORMAT.md).
 
 #include <iostream>
+#include <memory>
 #include <string>
+#include <vector>
 
 #include "server/conformance/query_runner.h"
+#include "server/embree/embree_device.h"
 
 int main(int argc, char** argv) {
-  if (argc > 1) {
-    std::cerr << "usage: " << argv[0] << " < CASES.jsonl > ANSWERS.jsonl\n"
-              << "Answers geometry conformance cases, one JSON line each.\n";
-    return std::string(argv[1]) == "--help" ? 0 : 2;
+  // --ray-backend native|embree: what answers the mesh ops (the same answers)
+  hapticd::conformance::QueryBackend backend;
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  const bool help = args.size() == 1 && args[0] == "--help";
+  const bool native = args.empty() || (args.size() == 2 && args[0] == "--ray-backend" && args[1] == "native");
+  const bool embree = args.size() == 2 && args[0] == "--ray-backend" && args[1] == "embree";
+  if (help || !(native || embree)) {
+    std::cerr << "usage: " << argv[0] << " [--ray-backend native|embree] < CASES.jsonl > ANSWERS.jsonl\n"
+              << "Answers geometry conformance cases, one JSON line each; the mesh ops run on the\n"
+              << "native BVH (default) or the Embree backend.\n";
+    return help ? 0 : 2;
   }
+  if (embree) backend.embree = std::make_shared<const hapticd::embree::EmbreeDevice>();
+
   std::ios::sync_with_stdio(false);
   std::string line;
   while (std::getline(std::cin, line)) {
     // blank lines are not cases
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-    std::cout << hapticd::conformance::AnswerCaseLine(line) << '\n';
+    std::cout << hapticd::conformance::AnswerCaseLine(line, backend) << '\n';
   }
   std::cout.flush();
   return 0;

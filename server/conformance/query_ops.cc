@@ -6,6 +6,10 @@
 
 #include <fmt/format.h>
 
+#include "server/embree/embree_closest_point.h"
+#include "server/embree/embree_mesh.h"
+#include "server/embree/embree_segment_queries.h"
+#include "server/embree/embree_signed_distance.h"
 #include "server/geometry/aabb.h"
 #include "server/geometry/box_box.h"
 #include "server/geometry/bvh.h"
@@ -89,40 +93,40 @@ std::pair<Vector3, Vector3> ReadSegment(const JsonAt& args) {
   return {p, q};
 }
 
-void RayTriangle(const JsonAt& args, ResultWriter& result) {
+void RayTriangle(const JsonAt& args, const QueryBackend&, ResultWriter& result) {
   const Vector3 origin = ReadVector3(args["origin"]);
   const Vector3 dir = ReadDirection(args["dir"]);
   const Triangle tri = ReadTriangle(args["tri"]);
   WriteTriangleHit(g::IntersectRayTriangleWatertight(origin, dir, tri), result);
 }
 
-void SegmentTriangle(const JsonAt& args, ResultWriter& result) {
+void SegmentTriangle(const JsonAt& args, const QueryBackend&, ResultWriter& result) {
   const auto [p, q] = ReadSegment(args);
   const Triangle tri = ReadTriangle(args["tri"]);
   WriteTriangleHit(g::IntersectSegmentTriangleWatertight(p, q, tri), result);
 }
 
-void TriangleTriangle(const JsonAt& args, ResultWriter& result) {
+void TriangleTriangle(const JsonAt& args, const QueryBackend&, ResultWriter& result) {
   const Triangle a = ReadTriangle(args["a"]);
   const Triangle b = ReadTriangle(args["b"]);
   result.Bool("intersect", g::TrianglesIntersect(a, b));
 }
 
-void SphereSphere(const JsonAt& args, ResultWriter& result) {
+void SphereSphere(const JsonAt& args, const QueryBackend&, ResultWriter& result) {
   const g::SphereSphereResult r = g::CollideSpheres(ReadSphere(args["a"]), ReadSphere(args["b"]));
   result.Bool("intersect", r.intersect);
   result.Number("distance", r.distance);
 }
 
-void AabbAabb(const JsonAt& args, ResultWriter& result) {
+void AabbAabb(const JsonAt& args, const QueryBackend&, ResultWriter& result) {
   result.Bool("intersect", g::AabbsOverlap(ReadAabb(args["a"]), ReadAabb(args["b"])));
 }
 
-void ObbObb(const JsonAt& args, ResultWriter& result) {
+void ObbObb(const JsonAt& args, const QueryBackend&, ResultWriter& result) {
   result.Bool("intersect", g::BoxesOverlap(ReadBox(args["a"]), ReadBox(args["b"])));
 }
 
-void ConvexConvex(const JsonAt& args, ResultWriter& result) {
+void ConvexConvex(const JsonAt& args, const QueryBackend&, ResultWriter& result) {
   const g::ConvexConvexResult r =
       g::CollideConvex(ReadConvexPoints(args["a"]), ReadConvexPoints(args["b"]));
   result.Bool("intersect", r.intersect);
@@ -132,30 +136,48 @@ void ConvexConvex(const JsonAt& args, ResultWriter& result) {
   result.Vector("point_b", r.point_b);
 }
 
-void SegmentMesh(const JsonAt& args, ResultWriter& result) {
-  const g::MeshBvh mesh = ReadMesh(args["mesh"]);
+// The case's mesh on the chosen backend: its BVH, and its Embree scene when asked for.
+struct CaseMesh {
+  std::shared_ptr<const g::MeshBvh> bvh;
+  std::unique_ptr<embree::EmbreeMesh> embree;
+};
+
+CaseMesh ReadCaseMesh(const JsonAt& at, const QueryBackend& backend) {
+  CaseMesh mesh;
+  mesh.bvh = std::make_shared<const g::MeshBvh>(ReadMesh(at));
+  if (backend.embree) mesh.embree = std::make_unique<embree::EmbreeMesh>(backend.embree, mesh.bvh);
+  return mesh;
+}
+
+void SegmentMesh(const JsonAt& args, const QueryBackend& backend, ResultWriter& result) {
+  const CaseMesh mesh = ReadCaseMesh(args["mesh"], backend);
   const auto [p, q] = ReadSegment(args);
-  const g::SegmentMeshHit hit = g::FindFirstSegmentHit(mesh, p, q);
+  const g::SegmentMeshHit hit =
+      mesh.embree ? embree::FindFirstSegmentHit(*mesh.embree, p, q) : g::FindFirstSegmentHit(*mesh.bvh, p, q);
   result.Bool("hit", hit.hit);
   if (!hit.hit) return;
   result.Number("t", hit.t);
   result.Int("triangle", hit.triangle);
 }
 
-void ClosestPointMesh(const JsonAt& args, ResultWriter& result) {
-  const g::MeshBvh mesh = ReadMesh(args["mesh"]);
-  const g::MeshClosestPoint closest = g::FindClosestPointOnMesh(mesh, ReadVector3(args["point"]));
+void ClosestPointMesh(const JsonAt& args, const QueryBackend& backend, ResultWriter& result) {
+  const CaseMesh mesh = ReadCaseMesh(args["mesh"], backend);
+  const g::Vector3 point = ReadVector3(args["point"]);
+  const g::MeshClosestPoint closest = mesh.embree ? embree::FindClosestPointOnMesh(*mesh.embree, point)
+                                                  : g::FindClosestPointOnMesh(*mesh.bvh, point);
   result.Number("distance", closest.distance);
   result.Vector("point", closest.point);
 }
 
-void PointInsideMesh(const JsonAt& args, ResultWriter& result) {
-  const g::MeshBvh mesh = ReadMesh(args["mesh"]);
-  if (!mesh.mesh().is_closed()) {
+void PointInsideMesh(const JsonAt& args, const QueryBackend& backend, ResultWriter& result) {
+  const CaseMesh mesh = ReadCaseMesh(args["mesh"], backend);
+  if (!mesh.bvh->mesh().is_closed()) {
     throw CaseError("args.mesh is not closed: some edge is not shared by exactly two "
                     "consistently oriented triangles, so it has no inside");
   }
-  result.Bool("inside", g::IsPointInsideMesh(mesh, ReadVector3(args["point"])));
+  const g::Vector3 point = ReadVector3(args["point"]);
+  result.Bool("inside", mesh.embree ? embree::IsPointInsideMesh(*mesh.embree, point)
+                                    : g::IsPointInsideMesh(*mesh.bvh, point));
 }
 
 struct NamedOp {

@@ -31,7 +31,7 @@ std::string ErrorLine(const rapidjson::Value* id, const std::string& message) {
 
 }  // namespace
 
-std::string AnswerCaseLine(std::string_view line) {
+std::string AnswerCaseLine(std::string_view line, const QueryBackend& backend) {
   rapidjson::Document doc;
   // NaN and infinities arrive as bare tokens; full precision keeps every double exact;
   // the iterative parser bounds stack use whatever the nesting depth.
@@ -69,7 +69,7 @@ std::string AnswerCaseLine(std::string_view line) {
     writer.Key("result");
     writer.StartObject();
     ResultWriter result(writer);
-    op(args, result);
+    op(args, backend, result);
     writer.EndObject();
     writer.EndObject();
     return buffer.GetString();

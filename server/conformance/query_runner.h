@@ -8,10 +8,13 @@
 #include <string>
 #include <string_view>
 
+#include "server/conformance/query_ops.h"
+
 namespace hapticd::conformance {
 
 // Answers one case line: {"id": ..., "op": ..., "args": {...}} ->
 // {"id": ..., "result": {...}} or {"id": ..., "error": "..."}. No trailing newline.
-std::string AnswerCaseLine(std::string_view line);
+// The mesh ops run on backend (native by default).
+std::string AnswerCaseLine(std::string_view line, const QueryBackend& backend = {});
 
 }  // namespace hapticd::conformance

@@ -25,4 +25,24 @@ geometry::MeshClosestPoint FindClosestPointOnMesh(
     const EmbreeMesh& mesh, const geometry::Vector3& p,
     double max_distance = std::numeric_limits<double>::infinity());
 
+namespace internal {
+
+// Which side of the surface p lies on, judged from one candidate closest point (its
+// triangle, feature and point): true for the outside. See embree_signed_distance.cc.
+using SideOfCandidate = bool (*)(const geometry::TriangleMesh& mesh, const geometry::Vector3& p,
+                                 const geometry::MeshClosestPoint& candidate);
+
+struct ClosestPointSides {
+  geometry::MeshClosestPoint closest;
+  // Some candidates exactly as close as `closest` (ties, any of which the native query
+  // may report) lie on different sides by the SideOfCandidate given.
+  bool sides_differ = false;
+};
+
+// FindClosestPointOnMesh(mesh, p) through Embree that also judges `side` on the best
+// candidate and every exact tie of it. Precondition: mesh.IsTrustedPoint(p).
+ClosestPointSides FindClosestPointAndSides(const EmbreeMesh& mesh, const geometry::Vector3& p,
+                                           SideOfCandidate side);
+
+}  // namespace internal
 }  // namespace hapticd::embree

@@ -7,6 +7,8 @@
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/gjk.h"
 #include "server/embree/embree_closest_point.h"
+#include "server/embree/embree_point_sweep.h"
+#include "server/embree/embree_signed_distance.h"
 #include "server/geometry/mesh_queries.h"
 #include "server/geometry/sphere_sweep.h"
 
@@ -140,7 +142,9 @@ ShapeProbe ProbeMesh(const MeshShape& shape, const Vector3& p, double max_distan
   geometry::MeshClosestPoint closest = FindClosestPoint(shape, p, max_distance);
   if (!closest.found) {
     if (!mesh.is_closed() || !mesh.bounds().Contains(p)) return probe;
-    const geometry::MeshSignedDistance inside = geometry::CalcSignedDistanceToMesh(*shape.bvh, p);
+    const geometry::MeshSignedDistance inside = shape.embree
+                                                    ? embree::CalcSignedDistanceToMesh(*shape.embree, p)
+                                                    : geometry::CalcSignedDistanceToMesh(*shape.bvh, p);
     if (!inside.inside) return probe;
     closest = inside.closest;
   }
@@ -226,7 +230,9 @@ ShapeSweep SweepMesh(const MeshShape& shape, const Vector3& a, const Vector3& b,
   }
   geometry::SphereSweepHit hit;
   if (end != a) {
-    hit = geometry::SweepSphereMesh(bvh, a, end, r);
+    // a point sweeps through Embree's BVH when the mesh is on it (the same answer)
+    hit = r == 0 && shape.embree ? embree::SweepPointMesh(*shape.embree, a, end)
+                                 : geometry::SweepSphereMesh(bvh, a, end, r);
     // back to the parameter of the whole sweep a -> b
     if (hit.hit && bound.hit) hit.t *= bound.t;
   }
