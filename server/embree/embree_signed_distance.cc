@@ -12,31 +12,7 @@ using geometry::Aabb;
 using geometry::MeshSignedDistance;
 using geometry::Triangle;
 using geometry::TriangleFeature;
-using geometry::Vector2;
 using geometry::Vector3;
-
-// A closest point this close (relative to the coordinates' magnitude) may be rounding
-// away from a point on the surface: the exact on-surface test decides. The native
-// query's threshold (mesh_queries.cc); any value far above the rounding of a closest
-// point gives the same answers, it only decides when the exact test runs.
-constexpr double kOnSurfaceTolerance = 1e-10;
-
-// Exactly whether p lies on the closed triangle: coplanar (Orient3d), then inside the
-// triangle's projection onto a coordinate plane where the projection keeps its area.
-bool IsPointOnTriangle(const Vector3& p, const Triangle& t) {
-  if (geometry::Orient3d(t.v0, t.v1, t.v2, p) != 0) return false;
-  for (int drop = 0; drop < 3; ++drop) {
-    const int i = (drop + 1) % 3, j = (drop + 2) % 3;
-    const Vector2 a(t.v0[i], t.v0[j]), b(t.v1[i], t.v1[j]), c(t.v2[i], t.v2[j]), x(p[i], p[j]);
-    const int orientation = geometry::Orient2d(a, b, c);
-    // this projection flattens the triangle to a segment: try the next axis
-    if (orientation == 0) continue;
-    return geometry::Orient2d(a, b, x) * orientation >= 0 &&
-           geometry::Orient2d(b, c, x) * orientation >= 0 &&
-           geometry::Orient2d(c, a, x) * orientation >= 0;
-  }
-  return false;
-}
 
 // What the holder search's callback reads and fills.
 struct HolderSearch {
@@ -51,7 +27,7 @@ bool VisitHolderCandidate(RTCPointQueryFunctionArguments* args) {
   // one holder is enough
   if (search.holder >= 0) return false;
   const Triangle& triangle = search.mesh->primitive(args->primID);
-  if (Aabb::OfTriangle(triangle).Contains(search.p) && IsPointOnTriangle(search.p, triangle)) {
+  if (Aabb::OfTriangle(triangle).Contains(search.p) && geometry::IsPointOnTriangle(search.p, triangle)) {
     search.holder = search.mesh->primitive_triangle(args->primID);
   }
   return false;
@@ -76,18 +52,6 @@ int FindTriangleHoldingPoint(const EmbreeMesh& mesh, const Vector3& p) {
   return search.holder;
 }
 
-// The native sign rule, before the flip for a mesh wound inwards: outside when p lies on
-// the positive side of the candidate feature's pseudo-normal; on a face, exactly.
-bool IsOutsideOf(const geometry::TriangleMesh& mesh, const Vector3& p,
-                 const geometry::MeshClosestPoint& candidate) {
-  if (candidate.feature == TriangleFeature::kFace) {
-    const Triangle t = mesh.triangle(candidate.triangle);
-    return geometry::Orient3d(t.v0, t.v1, t.v2, p) > 0;
-  }
-  const Vector3& normal = mesh.FeatureNormal(candidate.triangle, candidate.feature);
-  return (p - candidate.point).dot(normal) > 0;
-}
-
 }  // namespace
 
 MeshSignedDistance CalcSignedDistanceToMesh(const EmbreeMesh& mesh, const Vector3& p) {
@@ -95,7 +59,7 @@ MeshSignedDistance CalcSignedDistanceToMesh(const EmbreeMesh& mesh, const Vector
   if (!mesh.IsTrustedPoint(p)) return geometry::CalcSignedDistanceToMesh(mesh.bvh(), p);
   MeshSignedDistance result;
   const internal::ClosestPointSides found =
-      internal::FindClosestPointAndSides(mesh, p, &IsOutsideOf);
+      internal::FindClosestPointAndSides(mesh, p, &geometry::IsOutsideOfClosestFeature);
   result.closest = found.closest;
   if (!result.closest.found) return result;
   geometry::MeshClosestPoint& closest = result.closest;
@@ -107,7 +71,7 @@ MeshSignedDistance CalcSignedDistanceToMesh(const EmbreeMesh& mesh, const Vector
     result.inside = true;
     return result;
   }
-  if (closest.distance <= kOnSurfaceTolerance * magnitude) {
+  if (closest.distance <= geometry::kOnSurfaceTolerance * magnitude) {
     const int holder = FindTriangleHoldingPoint(mesh, p);
     if (holder >= 0) {
       const geometry::ClosestPointOnTriangle on =
@@ -122,7 +86,7 @@ MeshSignedDistance CalcSignedDistanceToMesh(const EmbreeMesh& mesh, const Vector
   // or on a medial axis): the side is the native query's pick among them
   if (found.sides_differ) return geometry::CalcSignedDistanceToMesh(mesh.bvh(), p);
   // the side of the closest feature's pseudo-normal
-  bool outside = IsOutsideOf(triangles, p, closest);
+  bool outside = geometry::IsOutsideOfClosestFeature(triangles, p, closest);
   // a closed mesh wound inwards: its outside is the other side
   if (triangles.signed_volume() < 0) outside = !outside;
   result.inside = !outside;

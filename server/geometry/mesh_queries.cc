@@ -14,9 +14,6 @@ namespace {
 
 using namespace bvh_simd;
 
-// A closest point this close (relative to the coordinates' magnitude) may be rounding
-// away from a point on the surface: the exact on-surface test decides.
-constexpr double kOnSurfaceTolerance = 1e-10;
 // A gap shorter than this (relative to the coordinates) has no reliable direction.
 constexpr double kTinyGap = 1e-12;
 
@@ -210,22 +207,6 @@ inline double BoxDistanceSquared(const Vector3& p, const Triangle& t) {
   return (lo - p).cwiseMax(p - hi).cwiseMax(0.0).squaredNorm();
 }
 
-// Exactly whether p lies on the closed triangle: coplanar (Orient3d), then inside the
-// triangle's projection onto a coordinate plane where the projection keeps its area.
-bool IsPointOnTriangle(const Vector3& p, const Triangle& t) {
-  if (Orient3d(t.v0, t.v1, t.v2, p) != 0) return false;
-  for (int drop = 0; drop < 3; ++drop) {
-    const int i = (drop + 1) % 3, j = (drop + 2) % 3;
-    const Vector2 a(t.v0[i], t.v0[j]), b(t.v1[i], t.v1[j]), c(t.v2[i], t.v2[j]), x(p[i], p[j]);
-    const int orientation = Orient2d(a, b, c);
-    // this projection flattens the triangle to a segment: try the next axis
-    if (orientation == 0) continue;
-    return Orient2d(a, b, x) * orientation >= 0 && Orient2d(b, c, x) * orientation >= 0 &&
-           Orient2d(c, a, x) * orientation >= 0;
-  }
-  return false;
-}
-
 // Original index of a triangle that holds p exactly, or -1.
 int FindTriangleHoldingPoint(const MeshBvh& bvh, const Vector3& p) {
   int found = -1;
@@ -258,6 +239,29 @@ Vector3 ContactNormal(const TriangleMesh& mesh, int triangle, const ClosestPoint
 }
 
 }  // namespace
+
+bool IsPointOnTriangle(const Vector3& p, const Triangle& t) {
+  if (Orient3d(t.v0, t.v1, t.v2, p) != 0) return false;
+  for (int drop = 0; drop < 3; ++drop) {
+    const int i = (drop + 1) % 3, j = (drop + 2) % 3;
+    const Vector2 a(t.v0[i], t.v0[j]), b(t.v1[i], t.v1[j]), c(t.v2[i], t.v2[j]), x(p[i], p[j]);
+    const int orientation = Orient2d(a, b, c);
+    // this projection flattens the triangle to a segment: try the next axis
+    if (orientation == 0) continue;
+    return Orient2d(a, b, x) * orientation >= 0 && Orient2d(b, c, x) * orientation >= 0 &&
+           Orient2d(c, a, x) * orientation >= 0;
+  }
+  return false;
+}
+
+bool IsOutsideOfClosestFeature(const TriangleMesh& mesh, const Vector3& p, const MeshClosestPoint& closest) {
+  // on a face, exactly
+  if (closest.feature == TriangleFeature::kFace) {
+    const Triangle t = mesh.triangle(closest.triangle);
+    return Orient3d(t.v0, t.v1, t.v2, p) > 0;
+  }
+  return (p - closest.point).dot(mesh.FeatureNormal(closest.triangle, closest.feature)) > 0;
+}
 
 SegmentMeshHit FindFirstSegmentHit(const MeshBvh& bvh, const Vector3& p, const Vector3& q) {
   SegmentMeshHit best;
@@ -373,14 +377,8 @@ MeshSignedDistance CalcSignedDistanceToMesh(const MeshBvh& bvh, const Vector3& p
     }
   }
 
-  // the side of the closest feature's pseudo-normal; on a face, exactly
-  bool outside;
-  if (closest.feature == TriangleFeature::kFace) {
-    const Triangle t = mesh.triangle(closest.triangle);
-    outside = Orient3d(t.v0, t.v1, t.v2, p) > 0;
-  } else {
-    outside = (p - closest.point).dot(mesh.FeatureNormal(closest.triangle, closest.feature)) > 0;
-  }
+  // the side of the closest feature's pseudo-normal
+  bool outside = IsOutsideOfClosestFeature(mesh, p, closest);
   // a closed mesh wound inwards: its outside is the other side
   if (mesh.signed_volume() < 0) outside = !outside;
   result.inside = !outside;

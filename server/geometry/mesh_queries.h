@@ -80,6 +80,19 @@ struct SphereMeshContacts {
 SphereMeshContacts FindSphereMeshContacts(const MeshBvh& bvh, const Sphere& sphere,
                                           std::span<SphereMeshContact> out);
 
+// A closest point this close to p (relative to the coordinates' magnitude) may be
+// rounding away from a point on the surface: the exact on-surface test decides.
+inline constexpr double kOnSurfaceTolerance = 1e-10;
+
+// Exactly whether p lies on the closed triangle: coplanar (Orient3d), then inside the
+// triangle's projection onto a coordinate plane where the projection keeps its area.
+bool IsPointOnTriangle(const Vector3& p, const Triangle& t);
+
+// The sign rule of CalcSignedDistanceToMesh, before its flip for a mesh wound inwards:
+// p is outside when it lies on the positive side of the closest feature's angle-
+// weighted pseudo-normal (exactly, by Orient3d, when that feature is a face).
+bool IsOutsideOfClosestFeature(const TriangleMesh& mesh, const Vector3& p, const MeshClosestPoint& closest);
+
 struct MeshSignedDistance {
   bool inside = false;       // within the closed solid; on the surface counts
   double signed_distance = 0;  // -distance inside, +distance outside, 0 on the surface
