@@ -61,3 +61,26 @@ def test_an_object_names_its_own_backend(server):
         with pytest.raises(hapticd.LocalError, match="ray_backend"):
             client.add_mesh("bad", tetra, faces, ray_backend="optix")
         client.remove_object("tetra")
+
+
+def test_a_ray_batch_answers_as_single_rays(bin_dir):
+    """Many segments in one request (the ring on Embree traces them in packets) give the
+    answers of the same segments one at a time; bad batches are refused by name."""
+    with running_server(bin_dir, "--ray-backend", "embree", "--log-level", "warning") as server:
+        with hapticd.connect(server.tcp) as client:
+            rng = np.random.default_rng(9)
+            origins = RING_CENTRE + rng.uniform(-0.08, 0.08, (400, 3)) + np.array([0, 0, 0.04])
+            directions = rng.normal(size=(400, 3))
+            batch = client.ray_cast_batch(origins, directions, 0.3)
+            assert batch.hit.shape == (400,) and batch.point.shape == (400, 3)
+            for i in range(400):
+                one = client.ray_cast(origins[i], directions[i], 0.3)
+                assert bool(batch.hit[i]) == one.hit and batch.objects[i] == one.object
+                if one.hit:
+                    assert batch.distance[i] == pytest.approx(one.distance, abs=1e-12)
+                    assert np.allclose(batch.point[i], one.point, atol=1e-12)
+            assert batch.objects.count("ring") > 20 and batch.objects.count("floor") > 20
+            with pytest.raises(hapticd.LocalError, match=r"directions\[1\] is zero"):
+                client.ray_cast_batch(origins[:3], np.array([[0, 0, 1], [0, 0, 0], [1, 0, 0]]))
+            with pytest.raises(hapticd.LocalError, match="one direction per origin"):
+                client.ray_cast_batch(origins[:3], directions[:2])

@@ -10,6 +10,7 @@
 #include "server/force/shape_queries.h"
 #include "server/net/log.h"
 #include "server/net/proto_convert.h"
+#include "server/net/ray_batch.h"
 #include "server/net/request_error.h"
 
 namespace hapticd::net {
@@ -168,6 +169,11 @@ v1::Reply ControlService::Dispatch(const v1::Request& request, ConnectionState& 
       return reply;
     }
     case R::kRayCast: return RayCast(request.ray_cast());
+    case R::kRayCastBatch: {
+      v1::Reply reply;
+      *reply.mutable_ray_hits() = CastRayBatch(*publisher_.current(), request.ray_cast_batch());
+      return reply;
+    }
     case R::kClosestPoint: return ClosestPoint(request.closest_point());
     case R::kFindContacts: return FindContacts(request.find_contacts());
     case R::kSubscribe: return Subscribe(request.request_id(), request.subscribe(), connection);

@@ -3,9 +3,13 @@
 #include "server/net/control_service.h"
 
 #include <cmath>
+#include <map>
+#include <random>
+#include <tuple>
 
 #include <gtest/gtest.h>
 
+#include "server/geometry/mesh_generators.h"
 #include "server/net/test/net_harness.h"
 
 namespace hapticd::net {
@@ -264,6 +268,90 @@ TEST(ControlService, SubscriptionsAreCheckedAndListed) {
   v1::Request stats;
   stats.mutable_get_stats();
   EXPECT_EQ(harness.Call(stats).stats().counters().control_errors(), 3u);
+}
+
+// A batch of segments answers as the same segments one at a time: meshes on Embree
+// (traced in packets), native meshes and primitives alike.
+TEST(ControlService, ABatchOfRaysAnswersAsSingleRays) {
+  Harness harness;
+  const geometry::TriangleMesh sphere = geometry::MakeIcosphere(6, 0.05);
+  for (const auto& [name, x, backend] : {std::tuple{"on_embree", 0.2, v1::RAY_BACKEND_EMBREE},
+                                        std::tuple{"on_native", -0.2, v1::RAY_BACKEND_NATIVE}}) {
+    v1::Object object;
+    object.set_name(name);
+    object.mutable_material()->set_stiffness(1000);
+    object.mutable_pose()->mutable_position()->set_x(x);
+    object.set_ray_backend(backend);
+    v1::Mesh* mesh = object.mutable_shape()->mutable_mesh();
+    mesh->set_representation(v1::REPRESENTATION_MESH);
+    for (const auto& v : sphere.vertices()) {
+      for (int k = 0; k < 3; ++k) mesh->add_vertices(v[k]);
+    }
+    for (const auto& t : sphere.triangles()) {
+      for (int k = 0; k < 3; ++k) mesh->add_triangles(t[k]);
+    }
+    ASSERT_TRUE(harness.Call(Add(object)).has_done());
+  }
+
+  std::mt19937_64 random(3);
+  std::uniform_real_distribution<double> place(-0.3, 0.3);
+  std::normal_distribution<double> turn(0, 1);
+  v1::Request batch;
+  v1::RayCastBatch* rays = batch.mutable_ray_cast_batch();
+  rays->set_max_distance(0.5);
+  std::vector<v1::Request> singles;
+  for (int i = 0; i < 500; ++i) {
+    const Vector3 origin(place(random), place(random) / 3, place(random) / 3 + 0.1);
+    const Vector3 direction(turn(random), turn(random), turn(random));
+    v1::Request single;
+    single.mutable_ray_cast()->set_max_distance(0.5);
+    for (int k = 0; k < 3; ++k) {
+      rays->add_origins(origin[k]);
+      rays->add_directions(direction[k]);
+    }
+    single.mutable_ray_cast()->mutable_origin()->set_x(origin.x());
+    single.mutable_ray_cast()->mutable_origin()->set_y(origin.y());
+    single.mutable_ray_cast()->mutable_origin()->set_z(origin.z());
+    single.mutable_ray_cast()->mutable_direction()->set_x(direction.x());
+    single.mutable_ray_cast()->mutable_direction()->set_y(direction.y());
+    single.mutable_ray_cast()->mutable_direction()->set_z(direction.z());
+    singles.push_back(single);
+  }
+  const v1::Reply reply = harness.Call(batch);
+  ASSERT_TRUE(reply.has_ray_hits()) << reply.DebugString();
+  const v1::RayHits& hits = reply.ray_hits();
+  ASSERT_EQ(hits.hit_size(), 500);
+  std::map<std::string, int> by_object;
+  for (int i = 0; i < 500; ++i) {
+    const v1::RayHit one = harness.Call(singles[i]).ray_hit();
+    ASSERT_EQ(hits.hit(i), one.hit()) << i;
+    ASSERT_EQ(hits.objects(i), one.object()) << i;
+    if (!one.hit()) continue;
+    ++by_object[one.object()];
+    EXPECT_NEAR(hits.distance(i), one.distance(), 1e-12) << i;
+    EXPECT_NEAR(hits.points(3 * i), one.point().x(), 1e-12) << i;
+    EXPECT_NEAR(hits.points(3 * i + 2), one.point().z(), 1e-12) << i;
+    EXPECT_NEAR(hits.normals(3 * i) * one.normal().x() + hits.normals(3 * i + 1) * one.normal().y() +
+                    hits.normals(3 * i + 2) * one.normal().z(),
+                1, 1e-9)
+        << i;
+  }
+  // every kind of object was hit
+  EXPECT_GT(by_object["on_embree"], 10);
+  EXPECT_GT(by_object["on_native"], 10);
+  EXPECT_GT(by_object["box"], 10);
+
+  rays->add_origins(0);
+  ExpectError(harness.Call(batch), v1::Error::CODE_BAD_REQUEST,
+              "ray_cast_batch has 1501 origin and 1500 direction values; it needs x, y, z of each, as many of one "
+              "as of the other");
+  rays->mutable_origins()->RemoveLast();
+  rays->set_directions(4, 0);
+  rays->set_directions(3, 0);
+  rays->set_directions(5, 0);
+  const v1::Reply zero = harness.Call(batch);
+  ASSERT_TRUE(zero.has_error());
+  EXPECT_EQ(zero.error().message().rfind("ray_cast_batch segment 1 has origin [", 0), 0u) << zero.error().message();
 }
 
 }  // namespace

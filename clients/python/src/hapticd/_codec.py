@@ -26,6 +26,7 @@ from hapticd.results import (
     Contact,
     ObjectInfo,
     RayHit,
+    RayHits,
     SceneInfo,
     ServerCounters,
     SessionTelemetry,
@@ -223,6 +224,17 @@ def ray_hit_from(message: pb.RayHit) -> RayHit:
         point=array3(message.point),
         normal=array3(message.normal),
         object=message.object,
+    )
+
+
+def ray_hits_from(message: pb.RayHits) -> RayHits:
+    """A RayHits from its message (its arrays copied into numpy once)."""
+    return RayHits(
+        hit=np.array(message.hit, dtype=bool),
+        distance=np.array(message.distance, dtype=np.float64),
+        point=np.array(message.points, dtype=np.float64).reshape(-1, 3),
+        normal=np.array(message.normals, dtype=np.float64).reshape(-1, 3),
+        objects=list(message.objects),
     )
 
 

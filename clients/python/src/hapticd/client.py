@@ -41,6 +41,7 @@ from hapticd.results import (
     ClosestPoint,
     Contact,
     RayHit,
+    RayHits,
     SceneInfo,
     SessionInfo,
     Stats,
@@ -313,6 +314,34 @@ class Client:
         )
         reply = self._call("ray_cast", message, timeout_s)
         return _decoded(codec.ray_hit_from, _body(reply, "ray_hit", pb.RayHit))
+
+    def ray_cast_batch(
+        self,
+        origins: ArrayLike,
+        directions: ArrayLike,
+        max_distance: float = 10.0,
+        *,
+        timeout_s: float | None = None,
+    ) -> RayHits:
+        """The first hits of many segments at once: origins and directions (N, 3), each
+        direction non-zero; segment i runs origins[i] -> origins[i] + max_distance *
+        directions[i] / |directions[i]|. Meshes on the Embree backend trace them in
+        packets. A segment that only touches a surface counts as a hit."""
+        origins = check.points(origins, "origins")
+        directions = check.points(directions, "directions")
+        if directions.shape != origins.shape:
+            raise LocalError(
+                f"directions has {len(directions)} rows and origins {len(origins)}; "
+                "one direction per origin"
+            )
+        if np.any(np.linalg.norm(directions, axis=1) == 0):
+            row = int(np.argmax(np.linalg.norm(directions, axis=1) == 0))
+            raise LocalError(f"directions[{row}] is zero; every segment needs a direction")
+        message = pb.RayCastBatch(max_distance=check.positive(max_distance, "max_distance"))
+        message.origins.extend(origins.ravel().tolist())
+        message.directions.extend(directions.ravel().tolist())
+        reply = self._call("ray_cast_batch", message, timeout_s)
+        return _decoded(codec.ray_hits_from, _body(reply, "ray_hits", pb.RayHits))
 
     def closest_point(
         self, point: ArrayLike, max_distance: float = 1.0, *, timeout_s: float | None = None

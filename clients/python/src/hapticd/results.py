@@ -7,6 +7,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+from numpy.typing import NDArray
+
 from hapticd._validate import FloatArray
 from hapticd.objects import Material, Pose
 
@@ -57,6 +60,19 @@ class RayHit:
     point: FloatArray
     normal: FloatArray
     object: str
+
+
+@dataclass(frozen=True, eq=False)
+class RayHits:
+    """A batch ray cast's first hits, one row per segment in order: hit (N,) bool,
+    distance (N,) m (0 on a miss), point and normal (N, 3) in W (zeros on a miss;
+    normals towards the origin), and the objects hit ("" on a miss)."""
+
+    hit: NDArray[np.bool_]
+    distance: FloatArray
+    point: FloatArray
+    normal: FloatArray
+    objects: list[str]
 
 
 @dataclass(frozen=True, eq=False)
