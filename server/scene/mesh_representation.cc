@@ -529,17 +529,14 @@ std::variant<std::shared_ptr<const ConvexHull>, std::string> BuildSolidHull(
   return std::shared_ptr<const ConvexHull>(std::move(hull));
 }
 
-Candidate FitConvex(const MeshFacts& facts, bool pinned) {
+Candidate FitConvex(const MeshFacts& facts) {
   Candidate out;
   out.kind = Representation::kConvex;
   const TriangleMesh& mesh = *facts.mesh;
-  // the star test is cheap: when it fails and nothing is pinned, skip the hull
+  // the bound needs the mesh star-shaped around its centroid; without it the error is
+  // still measured one way and reported as unproven
   const Vector3 c = facts.closed ? SolidCentroid(facts) : Mean(facts.points);
   const std::string problem = CoverageProblem(facts, {c}, "mesh's centroid");
-  if (!problem.empty() && !pinned) {
-    out.summary = "hull unproven: " + problem;
-    return out;
-  }
   auto built = BuildSolidHull(facts.points);
   if (std::string* why = std::get_if<std::string>(&built)) {
     out.impossible = *why;
@@ -588,12 +585,12 @@ Candidate KeepMesh(std::shared_ptr<const TriangleMesh> mesh) {
   return out;
 }
 
-Candidate Fit(Representation kind, const MeshFacts& facts, bool pinned) {
+Candidate Fit(Representation kind, const MeshFacts& facts) {
   switch (kind) {
     case Representation::kSphere: return FitSphere(facts);
     case Representation::kBox: return FitBox(facts);
     case Representation::kCapsule: return FitCapsule(facts);
-    default: return FitConvex(facts, pinned);
+    default: return FitConvex(facts);
   }
 }
 
@@ -640,7 +637,7 @@ RepresentedMesh ChooseMeshRepresentation(std::shared_ptr<const TriangleMesh> mes
   if (pin == Representation::kMesh) return Finish(KeepMesh(std::move(mesh)), "pinned: the mesh itself");
   const MeshFacts facts = CollectFacts(*mesh);
   if (pin != Representation::kAuto) {
-    Candidate candidate = Fit(pin, facts, /*pinned=*/true);
+    Candidate candidate = Fit(pin, facts);
     if (!candidate.impossible.empty()) {
       throw std::invalid_argument("cannot represent the mesh as a " +
                                   std::string(RepresentationName(pin)) + ": " +
@@ -650,11 +647,12 @@ RepresentedMesh ChooseMeshRepresentation(std::shared_ptr<const TriangleMesh> mes
     return Finish(std::move(candidate), std::move(reason));
   }
 
-  // automatic: the first (cheapest) candidate within tolerance
+  // automatic: the first (cheapest) primitive within tolerance, else the mesh. The
+  // convex hull is not a candidate: wherever it is as accurate as the mesh, the mesh's
+  // BVH answered faster (bench/results/speed_accuracy.md), so it is only ever pinned.
   std::string rejected;
-  for (Representation kind : {Representation::kSphere, Representation::kBox,
-                              Representation::kCapsule, Representation::kConvex}) {
-    Candidate candidate = Fit(kind, facts, /*pinned=*/false);
+  for (Representation kind : {Representation::kSphere, Representation::kBox, Representation::kCapsule}) {
+    Candidate candidate = Fit(kind, facts);
     if (candidate.impossible.empty() && candidate.bound <= tolerance) {
       std::string reason = candidate.summary + within;
       return Finish(std::move(candidate), std::move(reason));

@@ -40,8 +40,11 @@ struct RepresentedMesh {
 };
 
 // Chooses and builds the representation of mesh (vertices in M). tolerance > 0 (m).
-// pin: kAuto to choose, or the representation to use whatever its error (kConvex of a
-// non-convex mesh is allowed and reports its error; kSphere/kBox/kCapsule fit anyway).
+// pin: kAuto to choose the cheapest of a fitted sphere, box or capsule within tolerance,
+// else the mesh (the rule bench/results/speed_accuracy.md measured: a primitive where the
+// surface is one, the mesh otherwise; its convex hull is never cheaper at equal error);
+// or the representation to use whatever its error (kConvex of a non-convex mesh is
+// allowed and reports its error; kSphere/kBox/kCapsule fit anyway).
 // Allocates and may take a while (hull, BVH): call it off the real-time thread.
 // Throws std::invalid_argument naming the problem when pin is impossible (e.g. kConvex
 // of a flat mesh).

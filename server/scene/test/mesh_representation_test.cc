@@ -235,15 +235,21 @@ TEST(MeshRepresentation, IcosphereBecomesASphereAtALooseTolerance) {
   EXPECT_NE(r.choice.reason.find("<= tolerance 0.001 m"), std::string::npos) << r.choice.reason;
 }
 
-TEST(MeshRepresentation, IcosphereStaysAHullAtATightTolerance) {
+TEST(MeshRepresentation, IcosphereStaysAMeshAtATightTolerance) {
   const auto mesh = Share(geometry::MakeIcosphere(16, 0.5));
   const double sphere_bound = ChooseMeshRepresentation(mesh, 1e-3).choice.error_bound;
+  // tighter than the sphere fit: the mesh itself, never its hull (not cheaper)
   const RepresentedMesh r = ChooseMeshRepresentation(mesh, sphere_bound / 2);
-  // an icosphere is convex: its hull is itself, up to rounding
-  ASSERT_EQ(r.choice.chosen, Representation::kConvex) << r.choice.reason;
-  EXPECT_LT(r.choice.error_bound, 1e-12);
-  EXPECT_EQ(std::get<ConvexShape>(r.shape).hull->num_vertices(), mesh->num_vertices());
-  EXPECT_NE(r.choice.reason.find("convex hull within"), std::string::npos) << r.choice.reason;
+  ASSERT_EQ(r.choice.chosen, Representation::kMesh) << r.choice.reason;
+  EXPECT_EQ(r.choice.error_bound, 0);
+  EXPECT_NE(r.choice.reason.find("mesh kept, nothing cheaper within tolerance"), std::string::npos)
+      << r.choice.reason;
+  // pinned, the hull is the icosphere itself (it is convex), up to rounding
+  const RepresentedMesh hull = ChooseMeshRepresentation(mesh, sphere_bound / 2, Representation::kConvex);
+  ASSERT_EQ(hull.choice.chosen, Representation::kConvex) << hull.choice.reason;
+  EXPECT_LT(hull.choice.error_bound, 1e-12);
+  EXPECT_EQ(std::get<ConvexShape>(hull.shape).hull->num_vertices(), mesh->num_vertices());
+  EXPECT_NE(hull.choice.reason.find("convex hull within"), std::string::npos) << hull.choice.reason;
 }
 
 TEST(MeshRepresentation, BumpySphereBoundHoldsBothWays) {
@@ -366,13 +372,15 @@ TEST(MeshRepresentation, CapsuleMeshBecomesACapsule) {
 // ---------------------------------------------------------------------------------
 // Hulls and meshes
 
-TEST(MeshRepresentation, ConvexMeshBecomesItsHull) {
+TEST(MeshRepresentation, ConvexMeshIsItsHullWhenPinned) {
   std::mt19937_64 rng(13);
   const std::vector<Vector3> cloud = geometry::RandomBall(rng, 300, 0.4, Vector3(1, 2, 3));
   const geometry::ConvexHull hull = geometry::BuildConvexHull(cloud);
   ASSERT_EQ(hull.dimension, 3);
   const auto mesh = Share(TriangleMesh(hull.vertices, hull.faces));
-  const RepresentedMesh r = ChooseMeshRepresentation(mesh, 1e-4);
+  // left to choose, the scene keeps the mesh (no primitive fits within 1e-4)
+  EXPECT_EQ(ChooseMeshRepresentation(mesh, 1e-4).choice.chosen, Representation::kMesh);
+  const RepresentedMesh r = ChooseMeshRepresentation(mesh, 1e-4, Representation::kConvex);
   ASSERT_EQ(r.choice.chosen, Representation::kConvex) << r.choice.reason;
   EXPECT_LT(r.choice.error_bound, 1e-12);
   EXPECT_EQ(std::get<ConvexShape>(r.shape).hull->num_vertices(), hull.num_vertices());
@@ -477,7 +485,7 @@ TEST(MeshRepresentation, LargeMeshesTakeReasonableTime) {
   };
   const auto sphere = Share(geometry::MakeIcosphere(71, 1.0));
   EXPECT_EQ(time(sphere, 1e-3), Representation::kSphere);
-  EXPECT_EQ(time(sphere, 1e-9), Representation::kConvex);
+  EXPECT_EQ(time(sphere, 1e-9), Representation::kMesh);
   const auto torus = Share(geometry::MakeTorus(1.0, 0.3, 400, 125));
   EXPECT_EQ(time(torus, 1e-3), Representation::kMesh);
 }
