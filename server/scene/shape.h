@@ -50,7 +50,7 @@ std::string_view RayBackendName(RayBackend backend);
 // Embree backend, `embree` is the same mesh in an Embree scene (null for native).
 struct MeshShape {
   std::shared_ptr<const geometry::MeshBvh> bvh;
-  std::shared_ptr<const embree::EmbreeMesh> embree;
+  std::shared_ptr<const embree::EmbreeMesh> embree = nullptr;
 };
 
 using Shape = std::variant<SphereShape, BoxShape, CapsuleShape, PlaneShape, ConvexShape, MeshShape>;
