@@ -310,10 +310,7 @@ v1::Reply ControlService::RayCast(const v1::RayCast& ray) {
   const Vector3 origin = ReadVector(ray.origin(), "ray_cast.origin");
   const Vector3 direction = ReadVector(ray.direction(), "ray_cast.direction");
   if (!(direction.norm() > 0)) throw BadRequest("ray_cast.direction is zero; it needs a direction");
-  const double length = ray.max_distance();
-  if (!(std::isfinite(length) && length > 0)) {
-    throw BadRequest(fmt::format("ray_cast.max_distance is {}; it must be a finite number > 0", length));
-  }
+  const double length = RequirePositive(ray.max_distance(), "ray_cast.max_distance");
   const auto snapshot = publisher_.current();
   const Vector3 end = origin + direction.normalized() * length;
   const force::SceneSweep sweep = force::SweepSphereScene(*snapshot, origin, end, 0);
@@ -331,11 +328,7 @@ v1::Reply ControlService::RayCast(const v1::RayCast& ray) {
 
 v1::Reply ControlService::ClosestPoint(const v1::ClosestPoint& query) {
   const Vector3 p_W = ReadVector(query.point(), "closest_point.point");
-  const double max_distance = query.max_distance();
-  if (!(std::isfinite(max_distance) && max_distance > 0)) {
-    throw BadRequest(fmt::format("closest_point.max_distance is {}; it must be a finite number > 0",
-                                 max_distance));
-  }
+  const double max_distance = RequirePositive(query.max_distance(), "closest_point.max_distance");
   const auto snapshot = publisher_.current();
   const force::SceneContact contact = force::FindDeepestContact(*snapshot, p_W, 0, max_distance);
   v1::Reply reply;

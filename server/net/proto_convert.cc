@@ -18,13 +18,6 @@ constexpr double kMaxTimeoutS = 3600;
 constexpr double kDefaultTimeoutS = 2;
 constexpr double kMaxRateHz = 10'000;
 
-double RequirePositive(double value, const std::string& field) {
-  if (!(std::isfinite(value) && value > 0)) {
-    throw BadRequest(fmt::format("{} is {}; it must be a finite number > 0", field, value));
-  }
-  return value;
-}
-
 std::vector<Vector3> ReadPoints(const google::protobuf::RepeatedField<double>& flat,
                                 const std::string& field) {
   if (flat.size() % 3 != 0) {
@@ -90,6 +83,13 @@ scene::ShapeSpec ReadShape(const v1::Shape& shape, const std::string& field) {
 }
 
 }  // namespace
+
+double RequirePositive(double value, const std::string& field) {
+  if (!(std::isfinite(value) && value > 0)) {
+    throw BadRequest(fmt::format("{} is {}; it must be a finite number > 0", field, value));
+  }
+  return value;
+}
 
 Vector3 ReadVector(const v1::Vec3& v, const std::string& field) {
   const Vector3 result(v.x(), v.y(), v.z());

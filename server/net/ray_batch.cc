@@ -8,6 +8,7 @@
 
 #include "server/embree/embree_segment_queries.h"
 #include "server/force/shape_queries.h"
+#include "server/net/proto_convert.h"
 #include "server/net/request_error.h"
 
 namespace hapticd::net {
@@ -74,10 +75,7 @@ v1::RayHits CastRayBatch(const scene::SceneSnapshot& scene, const v1::RayCastBat
   if (n > kMaxSegments) {
     throw BadRequest(fmt::format("ray_cast_batch has {} segments; at most {} are served", n, kMaxSegments));
   }
-  const double length = batch.max_distance();
-  if (!(std::isfinite(length) && length > 0)) {
-    throw BadRequest(fmt::format("ray_cast_batch.max_distance is {}; it must be a finite number > 0", length));
-  }
+  const double length = RequirePositive(batch.max_distance(), "ray_cast_batch.max_distance");
   std::vector<Vector3> a_W(n), b_W(n);
   for (int i = 0; i < n; ++i) {
     const Vector3 origin(origins[3 * i], origins[3 * i + 1], origins[3 * i + 2]);
