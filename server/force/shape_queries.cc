@@ -7,7 +7,7 @@
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/gjk.h"
 #include "server/embree/embree_closest_point.h"
-#include "server/embree/embree_point_sweep.h"
+#include "server/embree/embree_sphere_sweep.h"
 #include "server/embree/embree_signed_distance.h"
 #include "server/geometry/mesh_queries.h"
 #include "server/geometry/sphere_sweep.h"
@@ -230,9 +230,9 @@ ShapeSweep SweepMesh(const MeshShape& shape, const Vector3& a, const Vector3& b,
   }
   geometry::SphereSweepHit hit;
   if (end != a) {
-    // a point sweeps through Embree's BVH when the mesh is on it (the same answer)
-    hit = r == 0 && shape.embree ? embree::SweepPointMesh(*shape.embree, a, end)
-                                 : geometry::SweepSphereMesh(bvh, a, end, r);
+    // through Embree's BVH when the mesh is on it (the same answer)
+    hit = shape.embree ? embree::SweepSphereMesh(*shape.embree, a, end, r)
+                       : geometry::SweepSphereMesh(bvh, a, end, r);
     // back to the parameter of the whole sweep a -> b
     if (hit.hit && bound.hit) hit.t *= bound.t;
   }

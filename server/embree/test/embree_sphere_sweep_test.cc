@@ -1,4 +1,4 @@
-#include "server/embree/embree_point_sweep.h"
+#include "server/embree/embree_sphere_sweep.h"
 
 #include <gtest/gtest.h>
 
@@ -24,26 +24,27 @@ std::string Describe(const SphereSweepHit& h) {
          std::to_string(h.triangle) + "}";
 }
 
-// The backend sweep equals the native one: same hit, t and point; the same triangle (then
-// the same normal and feature) or another one whose own sweep blocks at exactly that t
-// with the normal and feature reported (a tie).
+// The backend sweep of radius r equals the native one: same hit, t and point; the same
+// triangle (then the same normal and feature) or another one whose own sweep blocks at
+// exactly that t with the point, normal and feature reported (a tie).
 ::testing::AssertionResult SameSweep(const TriangleMesh& mesh, const Vector3& a, const Vector3& b,
-                                     const SphereSweepHit& native, const SphereSweepHit& backend) {
+                                     double r, const SphereSweepHit& native,
+                                     const SphereSweepHit& backend) {
   if (native.hit != backend.hit || native.t != backend.t) {
     return ::testing::AssertionFailure() << "native " << Describe(native) << " backend "
                                          << Describe(backend);
   }
   if (!native.hit) return ::testing::AssertionSuccess();
-  if (native.point != backend.point) return ::testing::AssertionFailure() << "different point";
   if (native.triangle == backend.triangle) {
+    if (native.point != backend.point) return ::testing::AssertionFailure() << "different point";
     if (native.normal == backend.normal && native.feature == backend.feature) {
       return ::testing::AssertionSuccess();
     }
     return ::testing::AssertionFailure() << "same triangle, different normal or feature";
   }
   const SphereSweepHit tie =
-      geometry::SweepSphereTriangle(mesh.triangle(backend.triangle), a, b, 0);
-  if (tie.hit && tie.t == native.t && tie.normal == backend.normal &&
+      geometry::SweepSphereTriangle(mesh.triangle(backend.triangle), a, b, r);
+  if (tie.hit && tie.t == native.t && tie.point == backend.point && tie.normal == backend.normal &&
       tie.feature == backend.feature) {
     return ::testing::AssertionSuccess();
   }
@@ -51,13 +52,13 @@ std::string Describe(const SphereSweepHit& h) {
                                        << Describe(backend) << " is not a tie";
 }
 
-class EmbreePointSweepTest : public ::testing::Test {
+class EmbreeSphereSweepTest : public ::testing::Test {
  protected:
   std::shared_ptr<const EmbreeDevice> device_ = std::make_shared<const EmbreeDevice>();
 };
 
 // Random sweeps, long and short, on every test mesh equal the native point sweep.
-TEST_F(EmbreePointSweepTest, RandomSweepsEqualNative) {
+TEST_F(EmbreeSphereSweepTest, RandomSweepsEqualNative) {
   std::mt19937_64 rng(51);
   for (const NamedMesh& named : TestMeshes()) {
     SCOPED_TRACE(named.name);
@@ -66,7 +67,7 @@ TEST_F(EmbreePointSweepTest, RandomSweepsEqualNative) {
     int hits = 0, total = 0;
     for (const auto& [a, b] : RandomSegments(*named.mesh, 20000, rng)) {
       const SphereSweepHit native = geometry::SweepSphereMesh(*bvh, a, b, 0);
-      ASSERT_TRUE(SameSweep(*named.mesh, a, b, native, SweepPointMesh(mesh, a, b)))
+      ASSERT_TRUE(SameSweep(*named.mesh, a, b, 0, native, SweepPointMesh(mesh, a, b)))
           << "a " << a.transpose() << " b " << b.transpose();
       hits += native.hit ? 1 : 0;
       ++total;
@@ -81,7 +82,7 @@ TEST_F(EmbreePointSweepTest, RandomSweepsEqualNative) {
 // (on the plane of each triangle around it) and from exact points of the box's faces,
 // towards random ends in and out: the r = 0 rules agree with native, and blocks at once,
 // blocks later and misses all occur.
-TEST_F(EmbreePointSweepTest, StartsOnAFacePlaneEqualNative) {
+TEST_F(EmbreeSphereSweepTest, StartsOnAFacePlaneEqualNative) {
   std::mt19937_64 rng(52);
   std::uniform_real_distribution<double> unit(-1, 1);
   auto ball = Share(geometry::MakeIcosphere(9, 1.0));
@@ -111,7 +112,7 @@ TEST_F(EmbreePointSweepTest, StartsOnAFacePlaneEqualNative) {
                                Vector3(0.05 * Vector3(unit(rng), unit(rng), unit(rng)))}) {
         const Vector3 b = a + d;
         const SphereSweepHit native = geometry::SweepSphereMesh(*bvh, a, b, 0);
-        ASSERT_TRUE(SameSweep(*shape, a, b, native, SweepPointMesh(mesh, a, b)))
+        ASSERT_TRUE(SameSweep(*shape, a, b, 0, native, SweepPointMesh(mesh, a, b)))
             << "a " << a.transpose() << " b " << b.transpose();
         at_start += native.hit && native.t == 0 ? 1 : 0;
         later += native.hit && native.t > 0 ? 1 : 0;
@@ -126,7 +127,7 @@ TEST_F(EmbreePointSweepTest, StartsOnAFacePlaneEqualNative) {
 
 // The r = 0 rules by hand on the box's top face (z = 0.75, normal +z), whose vertices and
 // these points are exact.
-TEST_F(EmbreePointSweepTest, FacePlaneRulesOnTheBox) {
+TEST_F(EmbreeSphereSweepTest, FacePlaneRulesOnTheBox) {
   auto box = Share(geometry::MakeBoxMesh({0.5, 1, 0.75}, 4));
   auto bvh = std::make_shared<const geometry::MeshBvh>(box);
   const EmbreeMesh mesh(device_, bvh);
@@ -156,7 +157,7 @@ TEST_F(EmbreePointSweepTest, FacePlaneRulesOnTheBox) {
     SCOPED_TRACE(c.name);
     const SphereSweepHit native = geometry::SweepSphereMesh(*bvh, c.a, c.b, 0);
     const SphereSweepHit backend = SweepPointMesh(mesh, c.a, c.b);
-    EXPECT_TRUE(SameSweep(*box, c.a, c.b, native, backend));
+    EXPECT_TRUE(SameSweep(*box, c.a, c.b, 0, native, backend));
     ASSERT_EQ(backend.hit, c.hit);
     if (!c.hit) continue;
     EXPECT_EQ(backend.t, c.t);
@@ -167,7 +168,7 @@ TEST_F(EmbreePointSweepTest, FacePlaneRulesOnTheBox) {
 
 // Sweeps aimed exactly through vertices and edge midpoints of the closed meshes, steep and
 // grazing: never a leak, and the native answer exactly.
-TEST_F(EmbreePointSweepTest, AimedThroughVerticesAndEdgesNeverLeaks) {
+TEST_F(EmbreeSphereSweepTest, AimedThroughVerticesAndEdgesNeverLeaks) {
   std::mt19937_64 rng(53);
   int aims = 0, hits = 0, leaks = 0;
   for (const NamedMesh& named : TestMeshes()) {
@@ -182,7 +183,7 @@ TEST_F(EmbreePointSweepTest, AimedThroughVerticesAndEdgesNeverLeaks) {
       for (const AimedSegment& s : MakeAimedSegments(*named.mesh, options, rng)) {
         const SphereSweepHit native = geometry::SweepSphereMesh(*bvh, s.p, s.q, 0);
         const SphereSweepHit backend = SweepPointMesh(mesh, s.p, s.q);
-        ASSERT_TRUE(SameSweep(*named.mesh, s.p, s.q, native, backend))
+        ASSERT_TRUE(SameSweep(*named.mesh, s.p, s.q, 0, native, backend))
             << "a " << s.p.transpose() << " b " << s.q.transpose();
         leaks += native.hit && !backend.hit ? 1 : 0;
         hits += native.hit ? 1 : 0;
@@ -197,7 +198,7 @@ TEST_F(EmbreePointSweepTest, AimedThroughVerticesAndEdgesNeverLeaks) {
 
 // NaN, infinite or motionless input misses at once; sweeps beyond the trust bound are
 // answered natively and equal the native answer.
-TEST_F(EmbreePointSweepTest, BadAndFarInput) {
+TEST_F(EmbreeSphereSweepTest, BadAndFarInput) {
   auto sphere = Share(geometry::MakeIcosphere(6, 1.0));
   auto bvh = std::make_shared<const geometry::MeshBvh>(sphere);
   const EmbreeMesh mesh(device_, bvh);
@@ -211,7 +212,7 @@ TEST_F(EmbreePointSweepTest, BadAndFarInput) {
   ASSERT_FALSE(mesh.IsTrustedSegment(far_a, far_b));
   const SphereSweepHit native = geometry::SweepSphereMesh(*bvh, far_a, far_b, 0);
   EXPECT_TRUE(native.hit);
-  EXPECT_TRUE(SameSweep(*sphere, far_a, far_b, native, SweepPointMesh(mesh, far_a, far_b)));
+  EXPECT_TRUE(SameSweep(*sphere, far_a, far_b, 0, native, SweepPointMesh(mesh, far_a, far_b)));
 
   // many NaN sweeps in a row neither crash nor hang
   std::mt19937_64 rng(54);
@@ -224,9 +225,98 @@ TEST_F(EmbreePointSweepTest, BadAndFarInput) {
   EXPECT_EQ(hits, 0);
 }
 
-// The sweep allocates nothing (operator new is counted by count_allocations.h; Embree's
+// Spheres of radii from below the point threshold to a fifth of the mesh, on random
+// sweeps long and short, on every test mesh: the native sweep's answer.
+TEST_F(EmbreeSphereSweepTest, RandomSphereSweepsEqualNative) {
+  std::mt19937_64 rng(56);
+  for (const NamedMesh& named : TestMeshes()) {
+    auto bvh = std::make_shared<const geometry::MeshBvh>(named.mesh);
+    const EmbreeMesh mesh(device_, bvh);
+    const double size = named.mesh->size();
+    for (const double r : {1e-14 * size, 0.002 * size, 0.02 * size, 0.2 * size}) {
+      SCOPED_TRACE(named.name + " r " + std::to_string(r));
+      int hits = 0, at_start = 0, total = 0;
+      for (const auto& [a, b] : RandomSegments(*named.mesh, 1500, rng)) {
+        const SphereSweepHit native = geometry::SweepSphereMesh(*bvh, a, b, r);
+        ASSERT_TRUE(SameSweep(*named.mesh, a, b, r, native, SweepSphereMesh(mesh, a, b, r)))
+            << "a " << a.transpose() << " b " << b.transpose();
+        hits += native.hit ? 1 : 0;
+        at_start += native.hit && native.t == 0 ? 1 : 0;
+        ++total;
+      }
+      EXPECT_GT(hits, total / 20);
+      EXPECT_LT(hits, total * 19 / 20);
+      if (r > 0.01 * size) {
+        EXPECT_GT(at_start, 0);
+      }
+    }
+  }
+}
+
+// A ball resting exactly on the box's top face (z = 0.75 + r, exact in binary) slides
+// across its grid edges and vertices without being stopped, and is stopped at once when
+// it moves down; over the box's edge it meets the side. Both backends alike.
+TEST_F(EmbreeSphereSweepTest, RestingSphereSlidesAndPressesAsNatively) {
+  auto box = Share(geometry::MakeBoxMesh({0.5, 1, 0.75}, 4));
+  auto bvh = std::make_shared<const geometry::MeshBvh>(box);
+  const EmbreeMesh mesh(device_, bvh);
+  const double r = 0.125;
+  const double z = 0.75 + r;
+  struct Case {
+    const char* name;
+    Vector3 a, b;
+    bool hit;
+    double t;
+  };
+  const Case cases[] = {
+      {"sliding across grid edges", {-0.4, -0.9, z}, {0.4, 0.9, z}, false, 0},
+      {"sliding along a grid edge", {0, -0.9, z}, {0, 0.9, z}, false, 0},
+      {"lifting off", {0.1, 0.2, z}, {0.1, 0.2, 1.5}, false, 0},
+      {"pressing down", {0.1, 0.2, z}, {0.1, 0.2, 0.5}, true, 0},
+      {"dropping from above", {0.1, 0.2, z + 1}, {0.1, 0.2, z - 1}, true, 0.5},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const SphereSweepHit native = geometry::SweepSphereMesh(*bvh, c.a, c.b, r);
+    const SphereSweepHit backend = SweepSphereMesh(mesh, c.a, c.b, r);
+    EXPECT_TRUE(SameSweep(*box, c.a, c.b, r, native, backend));
+    ASSERT_EQ(backend.hit, c.hit);
+    if (c.hit) {
+      EXPECT_EQ(backend.t, c.t);
+    }
+  }
+}
+
+// r = 0 is the point sweep; r < 0, a NaN or infinite radius, or NaN ends miss at once; a
+// radius beyond the trust bound is answered natively, with the native answer.
+TEST_F(EmbreeSphereSweepTest, SphereSweepBadAndFarInput) {
+  auto sphere = Share(geometry::MakeIcosphere(6, 1.0));
+  auto bvh = std::make_shared<const geometry::MeshBvh>(sphere);
+  const EmbreeMesh mesh(device_, bvh);
+  const Vector3 a(2, 0.1, 0), b(-2, 0.2, 0.1);
+  EXPECT_TRUE(SameSweep(*sphere, a, b, 0, SweepPointMesh(mesh, a, b), SweepSphereMesh(mesh, a, b, 0)));
+  for (const double r : {-0.1, -kInf, kInf, kNan}) {
+    EXPECT_FALSE(SweepSphereMesh(mesh, a, b, r).hit) << r;
+  }
+  EXPECT_FALSE(SweepSphereMesh(mesh, Vector3(kNan, 0, 0), b, 0.1).hit);
+  EXPECT_FALSE(SweepSphereMesh(mesh, a, a, 0.1).hit);
+  // a trusted segment with a radius beyond the trust bound
+  const double huge = 2 * mesh.trust_bound();
+  const Vector3 near_a(3, 0.1, 0), near_b(2, 0.1, 0);
+  ASSERT_TRUE(mesh.IsTrustedSegment(near_a, near_b));
+  const SphereSweepHit native = geometry::SweepSphereMesh(*bvh, near_a, near_b, huge);
+  ASSERT_TRUE(native.hit);
+  EXPECT_TRUE(SameSweep(*sphere, near_a, near_b, huge, native, SweepSphereMesh(mesh, near_a, near_b, huge)));
+  // and an untrusted segment
+  const Vector3 far_a(1e6, 0.01, 0), far_b(-1e6, 0.02, 0);
+  const SphereSweepHit far = geometry::SweepSphereMesh(*bvh, far_a, far_b, 0.1);
+  ASSERT_TRUE(far.hit);
+  EXPECT_TRUE(SameSweep(*sphere, far_a, far_b, 0.1, far, SweepSphereMesh(mesh, far_a, far_b, 0.1)));
+}
+
+// The sweeps allocate nothing (operator new is counted by count_allocations.h; Embree's
 // own heap is not).
-TEST_F(EmbreePointSweepTest, SweepsDoNotAllocate) {
+TEST_F(EmbreeSphereSweepTest, SweepsDoNotAllocate) {
   auto sphere = Share(geometry::MakeIcosphere(9, 1.0));
   auto bvh = std::make_shared<const geometry::MeshBvh>(sphere);
   const EmbreeMesh mesh(device_, bvh);
@@ -234,7 +324,10 @@ TEST_F(EmbreePointSweepTest, SweepsDoNotAllocate) {
   const auto segments = RandomSegments(*sphere, 200, rng);
   const long before = hapticd::testing::AllocationCount();
   int hits = 0;
-  for (const auto& [a, b] : segments) hits += SweepPointMesh(mesh, a, b).hit ? 1 : 0;
+  for (const auto& [a, b] : segments) {
+    hits += SweepPointMesh(mesh, a, b).hit ? 1 : 0;
+    hits += SweepSphereMesh(mesh, a, b, 0.01).hit ? 1 : 0;
+  }
   EXPECT_EQ(hapticd::testing::AllocationCount(), before);
   EXPECT_GT(hits, 0);
 }
