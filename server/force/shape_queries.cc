@@ -193,6 +193,36 @@ ShapeSweep SweepConvex(const scene::Shape& shape, const Vector3& a, const Vector
   return sweep;
 }
 
+// A sphere primitive in closed form: the first t at which the gap falls to
+// kSweepTolerance, where SweepConvex's advancement would stop (its iterates approach that
+// point from below), from |a + t d|^2 = rho^2, rho = R + r + tolerance, in the root form
+// C / (-B + sqrt(B^2 - AC)) that loses nothing to cancellation. A start within the
+// tolerance follows SweepConvex's rule: a hit at t = 0 only when the motion goes in.
+ShapeSweep SweepSphere(const SphereShape& sphere, const Vector3& a, const Vector3& b, double r) {
+  ShapeSweep sweep;
+  const Vector3 motion = b - a;
+  const double rho = sphere.radius + r + kSweepTolerance;
+  const double B = a.dot(motion);
+  const double C = a.squaredNorm() - rho * rho;
+  double t = 0;
+  if (C <= 0) {
+    const ShapeProbe start = ProbeSphere(sphere, a);
+    if (!(-motion.dot(start.normal_B) > 0)) return sweep;
+  } else {
+    // moving away, or passing by
+    const double discriminant = B * B - motion.squaredNorm() * C;
+    if (!(B < 0) || !(discriminant >= 0)) return sweep;
+    t = C / (-B + std::sqrt(discriminant));
+    if (!(t <= 1)) return sweep;
+  }
+  const ShapeProbe contact = ProbeSphere(sphere, a + t * motion);
+  sweep.hit = true;
+  sweep.t = t;
+  sweep.point_B = contact.point_B;
+  sweep.normal_B = contact.normal_B;
+  return sweep;
+}
+
 // A sphere resting on a dense mesh (a proxy in contact: every tick starts so) lies
 // within the BVH's grown boxes of thousands of triangles, and a sweep pressing into the
 // surface visits them all. The nearest triangle, found by a pruned closest-point query,
@@ -267,8 +297,11 @@ ShapeProbe ProbeShape(const scene::Shape& shape, const Vector3& p_B, double max_
 ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const Vector3& b_B,
                             double r) {
   if (!a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || a_B == b_B) return {};
-  if (scene::TypeOf(shape) != scene::ShapeType::kMesh) return SweepConvex(shape, a_B, b_B, r);
-  return SweepMesh(std::get<MeshShape>(shape), a_B, b_B, r);
+  switch (scene::TypeOf(shape)) {
+    case scene::ShapeType::kSphere: return SweepSphere(std::get<SphereShape>(shape), a_B, b_B, r);
+    case scene::ShapeType::kMesh: return SweepMesh(std::get<MeshShape>(shape), a_B, b_B, r);
+    default: return SweepConvex(shape, a_B, b_B, r);
+  }
 }
 
 Vector3 CalcShadingNormal(const scene::Shape& shape, int triangle, const Vector3& point_B,

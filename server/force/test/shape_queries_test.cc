@@ -116,6 +116,31 @@ TEST(SweepSphereShape, SphereMatchesTheAnalyticRoot) {
   EXPECT_GT(hits, 500);
 }
 
+// A sphere that starts touching the primitive (within the sweep tolerance) or inside it
+// is stopped at once only by motion into it; from its centre, +z is outward.
+TEST(SweepSphereShape, SphereStartingInContactOnlyMotionIntoItHits) {
+  const scene::Shape ball = scene::SphereShape{1};
+  const Vector3 on_top(0, 0, 1.25);  // r = 0.25: touching
+  EXPECT_FALSE(SweepSphereShape(ball, on_top, on_top + Vector3(0.5, 0, 0), 0.25).hit);
+  EXPECT_FALSE(SweepSphereShape(ball, on_top, on_top + Vector3(0, 0, 0.5), 0.25).hit);
+  const ShapeSweep into = SweepSphereShape(ball, on_top, on_top + Vector3(0.5, 0, -0.5), 0.25);
+  ASSERT_TRUE(into.hit);
+  EXPECT_EQ(into.t, 0);
+  EXPECT_EQ(into.point_B, Vector3(0, 0, 1));
+  EXPECT_EQ(into.normal_B, Vector3::UnitZ());
+  const Vector3 inside(0, 0.5, 0);
+  EXPECT_FALSE(SweepSphereShape(ball, inside, Vector3(0, 3, 0), 0).hit);
+  EXPECT_TRUE(SweepSphereShape(ball, inside, Vector3(0, 0.25, 0), 0).hit);
+  EXPECT_TRUE(SweepSphereShape(ball, Vector3::Zero(), Vector3(0, 0, -1), 0).hit);
+  EXPECT_FALSE(SweepSphereShape(ball, Vector3::Zero(), Vector3(0, 0, 1), 0).hit);
+  // passing by 1e-6 beyond reach, and ending 1e-6 short of it: misses
+  EXPECT_FALSE(SweepSphereShape(ball, Vector3(-2, 1.25 + 1e-6, 0), Vector3(2, 1.25 + 1e-6, 0), 0.25).hit);
+  EXPECT_FALSE(SweepSphereShape(ball, Vector3(0, 3, 0), Vector3(0, 1.25 + 1e-6, 0), 0.25).hit);
+  const ShapeSweep ends_on = SweepSphereShape(ball, Vector3(0, 3, 0), Vector3(0, 1.25, 0), 0.25);
+  ASSERT_TRUE(ends_on.hit);
+  EXPECT_NEAR(ends_on.t, 1, 1e-9);
+}
+
 // Box and hull against the mesh sweep over the same surface (an independent
 // implementation): the same hit or miss, and each one's contact distance equal to r at
 // the other's time.
