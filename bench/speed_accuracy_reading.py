@@ -43,8 +43,8 @@ INTRODUCTION = [
 SCENE_CHECK = prose("""For each tessellation, `scene::ChooseMeshRepresentation` proves a bound
 between the mesh and each cheaper candidate (fitted sphere, box, capsule, hull). Given the
 mesh, the rule picks, among the candidates within the tolerance and the mesh itself, the one
-this chart measured cheapest for each query; the scene picks by its fixed order sphere < box <
-capsule < convex < mesh.""")
+this chart measured cheapest for each query; the scene picks the first of a fitted sphere, box
+or capsule within the tolerance, else the mesh (the hull only when a client pins it).""")
 AIM = prose("""Same inputs, same tessellations, one run. hapticd's fastest exact path: the
 faster of the native BVH and the Embree backend on the same mesh (raw float Embree is not
 exact and is left out), or the analytic primitive against a peer's primitive. Peers are
@@ -397,8 +397,8 @@ def hull_note(reading: Reading) -> list[str]:
         prose(f"""- The convex hull's queries grow with its size (GJK hill-climbs over its
         vertices outside; inside, every face is tried): the slowest, {slowest.query} on the
         {slowest.surface}'s {slowest.triangles:,}-face hull, takes {slowest.time_ns / 1e6:.1f} ms,
-        more than a 1 kHz tick. The scene's order puts the hull before the mesh whatever its
-        size.""")
+        more than a 1 kHz tick. The scene never chooses the hull by itself, only when a
+        client pins it.""")
     ]
 
 
