@@ -330,16 +330,9 @@ class Reading:
         ]
         behind = 0
         for peer in peers:
-            fits = [
-                r
-                for r in self.rows
-                if r.implementation == "hapticd"
-                and r.exact
-                and r.query == peer.query
-                and r.surface == peer.surface
-                and r.error_max <= peer.error_max * EQUAL_ACCURACY + 1e-15
-            ]
-            ours = fastest(fits)
+            ours = self.cheapest_within(
+                peer.query, peer.surface, peer.error_max * EQUAL_ACCURACY + 1e-15
+            )
             if ours is None:
                 behind += 1
                 verdict, ours_text, error_text, ratio_text = "**behind** (none as accurate)", "-", "-", "-"

@@ -12,18 +12,13 @@ using geometry::Aabb;
 using geometry::SphereSweepHit;
 using geometry::Vector3;
 
-// Slack beyond r, relative to the coordinates, that the native sweep still reaches
-// (geometry::SweepSphereMesh grows its boxes by r + 1e-12 of the magnitude); taken
-// larger here, since a larger ball only adds candidates.
-constexpr double kReachSlack = 1e-9;
-
 // What the point query callback reads and improves.
 struct SphereSweepSearch {
   const EmbreeMesh* mesh = nullptr;
   Vector3 a = Vector3::Zero();
   Vector3 b = Vector3::Zero();
   double r = 0;
-  Aabb reach;  // the sweep's box grown by what it can reach: an exact cheap reject
+  Aabb reach;  // the sweep's box grown by what it can reach: the native's exact reject
   SphereSweepHit hit;
 };
 
@@ -74,8 +69,8 @@ SphereSweepHit SweepSphereMesh(const EmbreeMesh& mesh, const Vector3& a, const V
   search.a = a;
   search.b = b;
   search.r = r;
-  const double scale = r + std::max(a.cwiseAbs().maxCoeff(), b.cwiseAbs().maxCoeff());
-  const double reach = r + kReachSlack * scale;
+  // what the native sweep can reach, and prunes beyond
+  const double reach = geometry::CalcSphereSweepReach(a, b, r);
   search.reach = Aabb{a.cwiseMin(b), a.cwiseMax(b)}.Inflated(reach);
   // the ball around the motion's middle that holds the swept capsule; the centre's
   // rounding to float is far inside the guard

@@ -9,9 +9,9 @@
 //  - a point sweeps as a ray (rtcIntersect1): every triangle the segment touches is a
 //    candidate (see embree_mesh.h), and the best hit cuts the ray;
 //  - a sphere sweeps as a point query (rtcPointQuery) around the middle of the motion,
-//    of radius |b - a| / 2 + r grown by the native sweep's slack and the mesh's guard:
-//    the swept capsule lies inside that ball, so every triangle it could touch is a
-//    candidate.
+//    of radius |b - a| / 2 plus the native sweep's reach (r and a slack) and the mesh's
+//    guard: the swept capsule lies inside that ball, so every triangle it could touch is
+//    a candidate.
 //
 // Points are in the mesh's frame. Thread-safe, allocation-free, never throw.
 

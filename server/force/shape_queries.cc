@@ -205,10 +205,7 @@ ShapeSweep SweepSphere(const SphereShape& sphere, const Vector3& a, const Vector
   const double B = a.dot(motion);
   const double C = a.squaredNorm() - rho * rho;
   double t = 0;
-  if (C <= 0) {
-    const ShapeProbe start = ProbeSphere(sphere, a);
-    if (!(-motion.dot(start.normal_B) > 0)) return sweep;
-  } else {
+  if (C > 0) {
     // moving away, or passing by
     const double discriminant = B * B - motion.squaredNorm() * C;
     if (!(B < 0) || !(discriminant >= 0)) return sweep;
@@ -216,6 +213,7 @@ ShapeSweep SweepSphere(const SphereShape& sphere, const Vector3& a, const Vector
     if (!(t <= 1)) return sweep;
   }
   const ShapeProbe contact = ProbeSphere(sphere, a + t * motion);
+  if (C <= 0 && !(-motion.dot(contact.normal_B) > 0)) return sweep;
   sweep.hit = true;
   sweep.t = t;
   sweep.point_B = contact.point_B;

@@ -423,6 +423,11 @@ double CalcSphereSweepSkin(const Vector3& a, const Vector3& b, double r) {
   return SkinOf(r, ScaleOf(a, b, r));
 }
 
+double CalcSphereSweepReach(const Vector3& a, const Vector3& b, double r) {
+  Sweep s;
+  return MakeSweep(a, b, r, s) ? s.reach : 0;
+}
+
 SphereSweepHit SweepSphereTriangle(const Triangle& tri, const Vector3& a, const Vector3& b,
                                    double r) {
   Sweep s;

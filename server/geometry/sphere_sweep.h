@@ -62,6 +62,11 @@ struct SphereSweepHit {
 // can feel.
 double CalcSphereSweepSkin(const Vector3& a, const Vector3& b, double r);
 
+// How far from the segment a -> b a sweep of radius r can touch anything: r (0 for r
+// swept as a point) plus 1e-12 of the coordinates' magnitude. SweepSphereMesh skips what
+// lies farther; 0 for input that misses at once.
+double CalcSphereSweepReach(const Vector3& a, const Vector3& b, double r);
+
 // First contact of a sphere of radius r >= 0, its centre moving a -> b, with the closed
 // triangle tri, under the rules above. A degenerate (zero-area) triangle has no face:
 // r > 0 still meets its edges and corners, r = 0 misses it.
