@@ -193,13 +193,20 @@ def request_frame(request_id, **body):
     return encode_frame(pb.Request(request_id=request_id, **body).SerializeToString())
 
 
-def assert_still_serving(server):
+def control_errors(server):
+    """The server's count of control requests answered with an error, so far."""
     with hapticd.connect(server.tcp, timeout_s=10) as fresh:
-        assert fresh.stats().counters.control_errors >= 0
+        return fresh.stats().counters.control_errors
+
+
+def assert_still_serving(server, errors_before, errors):
+    """The server serves a new connection, and counted exactly `errors` more errors."""
+    assert control_errors(server) == errors_before + errors
     assert server.alive
 
 
 def test_an_oversized_length_gets_frame_too_large_and_a_close(server):
+    errors_before = control_errors(server)
     with raw_connect(server) as sock:
         sock.sendall(struct.pack(">I", 64 * 1024 * 1024 + 1))
         decoder = FrameDecoder()
@@ -207,27 +214,31 @@ def test_an_oversized_length_gets_frame_too_large_and_a_close(server):
         assert reply.error.code == pb.Error.CODE_FRAME_TOO_LARGE
         assert "67108865" in reply.error.message
         assert read_reply(sock, decoder) is None
-    assert_still_serving(server)
+    assert_still_serving(server, errors_before, 1)
 
 
 def test_text_instead_of_frames_is_refused_the_same_way(server):
+    errors_before = control_errors(server)
     with raw_connect(server) as sock:
         sock.sendall(b"GET / HTTP/1.1\r\nHost: x\r\n\r\n")
         decoder = FrameDecoder()
         assert read_reply(sock, decoder).error.code == pb.Error.CODE_FRAME_TOO_LARGE
         assert read_reply(sock, decoder) is None
-    assert_still_serving(server)
+    assert_still_serving(server, errors_before, 1)
 
 
 def test_a_truncated_frame_then_hanging_up_leaves_the_server_serving(server):
+    errors_before = control_errors(server)
     with raw_connect(server) as sock:
         sock.sendall(struct.pack(">I", 100) + b"\x08\x01" * 5)
     with raw_connect(server) as sock:
         sock.sendall(struct.pack(">I", 100)[:2])
-    assert_still_serving(server)
+    # half a frame is no request: nothing to answer, nothing counted
+    assert_still_serving(server, errors_before, 0)
 
 
 def test_garbage_in_a_frame_is_a_bad_request_and_the_connection_goes_on(server):
+    errors_before = control_errors(server)
     with raw_connect(server) as sock:
         decoder = FrameDecoder()
         sock.sendall(encode_frame(b"\xff\xff\xff\xff\xff\xff"))
@@ -237,9 +248,11 @@ def test_garbage_in_a_frame_is_a_bad_request_and_the_connection_goes_on(server):
         sock.sendall(request_frame(5, get_stats=pb.GetStats()))
         reply = read_reply(sock, decoder)
         assert reply.request_id == 5 and reply.HasField("stats")
+    assert_still_serving(server, errors_before, 1)
 
 
 def test_unknown_fields_are_named_and_the_connection_goes_on(server):
+    errors_before = control_errors(server)
     with raw_connect(server) as sock:
         decoder = FrameDecoder()
         # field 99, a varint: not part of hapticd.v1
@@ -250,9 +263,11 @@ def test_unknown_fields_are_named_and_the_connection_goes_on(server):
         assert "not part of hapticd.v1" in reply.error.message
         sock.sendall(request_frame(7, get_scene=pb.GetScene()))
         assert read_reply(sock, decoder).HasField("scene")
+    assert_still_serving(server, errors_before, 1)
 
 
 def test_an_empty_request_and_values_the_client_would_refuse(server):
+    errors_before = control_errors(server)
     with raw_connect(server) as sock:
         decoder = FrameDecoder()
         sock.sendall(encode_frame(b""))
@@ -273,7 +288,7 @@ def test_an_empty_request_and_values_the_client_would_refuse(server):
         reply = read_reply(sock, decoder)
         assert reply.error.code == pb.Error.CODE_BAD_REQUEST
         assert "triangles[2] is 7" in reply.error.message
-    assert_still_serving(server)
+    assert_still_serving(server, errors_before, 3)
 
 
 def run_cli(*args):
@@ -331,12 +346,34 @@ def test_the_command_line_loads_and_shows_scenes(server, tmp_path):
     assert set(shown) == {"ball", "cube", "ico"}
     assert shown["ball"]["shape"] == "sphere" and shown["ball"]["material"]["stiffness"] == 1500
     assert shown["cube"]["representation"] == "mesh" and shown["cube"]["triangles"] == 12
-    assert (
-        shown["ico"]["position"] == [0, 0.3, 0.03] and shown["ico"]["material"]["stiffness"] == 2000
-    )
+    # a mesh file's stiffness is the package's one default, the server's
+    assert shown["ico"]["position"] == [0, 0.3, 0.03]
+    assert shown["ico"]["material"]["stiffness"] == hapticd.objects.DEFAULT_STIFFNESS == 1000
     # the server's refusal is a failure (1) that names the problem
     code, out, err = run_cli("scene", "load", str(scene_file), "--server", server.tcp)
     assert code == 1 and "ALREADY_EXISTS" in err and '"ball"' in err
+
+
+def refuse_constant(name):
+    raise AssertionError(f"{name} is not JSON")
+
+
+def test_scene_show_prints_strict_json_for_infinite_values(client, server):
+    """A plane's bounds are infinite, and a flat mesh pinned as a sphere has an
+    unbounded representation error: JSON has neither, so both print as "inf"."""
+    client.clear_scene()
+    client.add_plane("floor")
+    flat = [[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0]]
+    client.add_mesh("flat", flat, [[0, 1, 2]], "sphere", position=(0, 0, 0.5))
+    assert math.isinf(client.scene().object("flat").representation_error)
+    code, out, err = run_cli("scene", "show", "--server", server.tcp)
+    assert code == 0, err
+    shown = json.loads(out, parse_constant=refuse_constant)
+    objects = {obj["name"]: obj for obj in shown["objects"]}
+    assert objects["flat"]["representation"] == "sphere"
+    assert objects["flat"]["representation_error"] == "inf"
+    assert objects["floor"]["bounds_min"] == ["-inf", "-inf", "-inf"]
+    assert objects["floor"]["bounds_max"] == ["inf", "inf", 0.0]
 
 
 def test_tls_on_the_control_channel(bin_dir, tmp_path):

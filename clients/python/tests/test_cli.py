@@ -3,11 +3,13 @@ message naming the problem, before any connection is tried; an unreachable serve
 exits 1."""
 
 import json
+import math
 import socket
 
+import numpy as np
 import pytest
 
-from hapticd.cli import main
+from hapticd.cli import _strict_json, main
 
 
 @pytest.fixture
@@ -38,6 +40,31 @@ def test_bad_arguments_exit_2_naming_them(capsys, argv, message):
     code, err = run(argv, capsys)
     assert code == 2
     assert message in err
+
+
+@pytest.mark.parametrize(
+    ("argv", "unknown"),
+    [
+        # abbreviations of --timeout, --stiffness, --seconds and --server
+        (["scene", "show", "--tim"], "--tim"),
+        (["scene", "load", "x.json", "--stiff", "5"], "--stiff 5"),
+        (["demo", "--sec"], "--sec"),
+        (["bench", "latency", "--serv", "127.0.0.1:1"], "--serv 127.0.0.1:1"),
+        (["scene", "clear", "--bogus"], "--bogus"),
+    ],
+)
+def test_an_unknown_flag_is_refused_as_unknown(capsys, argv, unknown):
+    code, err = run(argv, capsys)
+    assert code == 2
+    assert err.splitlines()[-1] == f"python -m hapticd: error: unrecognized arguments: {unknown}"
+
+
+def test_printed_json_holds_no_bare_infinity_or_nan():
+    printed = json.dumps(
+        _strict_json({"a": [math.inf, -math.inf, math.nan, 1.5], "b": {"c": np.float64("inf")}}),
+        allow_nan=False,
+    )
+    assert json.loads(printed) == {"a": ["inf", "-inf", "nan", 1.5], "b": {"c": "inf"}}
 
 
 def test_a_bad_scene_file_exits_2_before_connecting(tmp_path, capsys, closed_port):

@@ -64,8 +64,77 @@ CASES = [
     ),
     (
         lambda c: c.add_sphere("s", 1.0, material={"stiffnes": 5}),
-        r"material has unknown field\(s\) \['stiffnes'\]",
+        r"^material.stiffnes is not a material field; a material has stiffness, damping, "
+        r"static_friction, dynamic_friction, force_shading$",
     ),
+    # unknown keywords are named, with the likely one meant
+    (
+        lambda c: c.add_sphere("s", 1.0, rotaton=(1, 0, 0, 0)),
+        r"^add_sphere got an unknown keyword argument 'rotaton' \(did you mean 'rotation'\?\); "
+        r"it takes position, rotation, material, kinematic, velocity, angular_velocity, "
+        r"timeout_s$",
+    ),
+    (
+        lambda c: c.add_box("b", (1, 1, 1), materail={"stiffness": 5}),
+        r"^add_box got an unknown keyword argument 'materail' \(did you mean 'material'\?\)",
+    ),
+    (
+        lambda c: c.add_capsule("c", 0.1, 0.1, orientation=(1, 0, 0, 0)),
+        r"^add_capsule got an unknown keyword argument 'orientation' \(did you mean 'rotation'",
+    ),
+    (
+        lambda c: c.add_convex("h", np.eye(4, 3), pos=(0, 0, 0)),
+        r"^add_convex got an unknown keyword argument 'pos'; it takes position, rotation, "
+        r"material, kinematic, velocity, angular_velocity, timeout_s$",
+    ),
+    (
+        lambda c: c.add_plane("p", normals=(0, 0, 1)),
+        r"^add_plane got an unknown keyword argument 'normals' \(did you mean 'normal'\?\); "
+        r"it takes normal, position",
+    ),
+    (
+        lambda c: c.add_mesh("m", np.eye(3), [[0, 1, 2]], represent="mesh"),
+        r"^add_mesh got an unknown keyword argument 'represent' \(did you mean 'representation'",
+    ),
+    (
+        lambda c: c.add_mesh_file("m", "/nonexistent/bunny.obj", scal=2),
+        r"^add_mesh_file got an unknown keyword argument 'scal' \(did you mean 'scale'",
+    ),
+    # text and truth values are not numbers, nor is a number a flag
+    (lambda c: c.add_sphere("s", "0.1"), r"^radius is '0.1'; it must be a number$"),
+    (lambda c: c.add_sphere("s", True), r"^radius is True; it must be a number$"),
+    (lambda c: c.add_sphere("s", np.True_), r"^radius is np.True_; it must be a number$"),
+    (lambda c: c.add_capsule("c", 0.1, "1"), r"^half_length is '1'; it must be a number$"),
+    (
+        lambda c: c.add_sphere("s", 1.0, position=("0", 0, 0)),
+        r"^position is \('0', 0, 0\); it must be numbers$",
+    ),
+    (
+        lambda c: c.add_box("b", [True, True, True]),
+        r"^half_extents is \[True, True, True\]; it must be numbers$",
+    ),
+    (
+        lambda c: c.add_sphere("s", 1.0, material={"stiffness": "2000"}),
+        r"^material.stiffness is '2000'; it must be a number$",
+    ),
+    (
+        lambda c: c.add_sphere("s", 1.0, material={"stiffness": 1, "force_shading": 1}),
+        r"^material.force_shading is 1; it must be True or False$",
+    ),
+    (
+        lambda c: c.add_sphere("s", 1.0, kinematic="no"),
+        r"^kinematic is 'no'; it must be True or False$",
+    ),
+    (
+        lambda c: c.set_material("s", {"dampin": 3}),
+        r"^material.dampin is not a material field",
+    ),
+    (
+        lambda c: c.set_material("s", {"damping": "3"}),
+        r"^material.damping is '3'; it must be a number$",
+    ),
+    (lambda c: c.open_session(max_force="10"), r"^max_force is '10'; it must be a number$"),
+    (lambda c: c.scene(timeout_s="1"), r"^timeout_s is '1'; it must be a number$"),
     (
         lambda c: c.add_sphere(
             "s", 1.0, material=Material(1000, static_friction=0.2, dynamic_friction=0.5)

@@ -157,13 +157,139 @@ def test_a_reply_to_a_request_never_sent_is_a_protocol_error(fake_server):
         client.clear_scene()
 
 
-def test_a_server_that_hangs_up_raises_connection_closed(fake_server):
-    client, server = fake_server(lambda request: [])
+def test_a_server_that_hangs_up_raises_connection_closed_every_time(fake_server):
+    servers = []
+
+    def hang_up(request):
+        servers[0].sock.shutdown(socket.SHUT_RDWR)
+        return []
+
+    client, server = fake_server(hang_up)
+    servers.append(server)
+    started = time.monotonic()
+    with pytest.raises(ConnectionClosed) as hung_up:
+        client.scene(timeout_s=30)
+    # at once, and said so: no word of a timeout
+    assert time.monotonic() - started < 10
+    assert str(hung_up.value) == (
+        "the server closed the connection (awaiting the reply to get_scene)"
+    )
+    assert client.closed
+    # later calls say the same, not "you misused the API"
+    for call in (client.scene, client.clear_scene, client.stats):
+        with pytest.raises(ConnectionClosed) as later:
+            call()
+        assert str(later.value) == (
+            "the connection is closed: the server closed the connection "
+            "(awaiting the reply to get_scene)"
+        )
+
+
+def test_a_subscription_whose_server_hangs_up_raises_connection_closed(fake_server):
+    def first_sample(request):
+        if request.HasField("subscribe"):
+            return [telemetry(request.request_id, 1)]
+        return []
+
+    client, server = fake_server(first_sample)
+    subscription = client.subscribe(100, timeout_s=30)
+    assert subscription.next().server_time_ns == 1
     server.sock.shutdown(socket.SHUT_RDWR)
-    with pytest.raises(ConnectionClosed):
+    with pytest.raises(ConnectionClosed) as hung_up:
+        subscription.next()
+    assert str(hung_up.value) == (
+        "the server closed the connection (awaiting the telemetry of subscription 1)"
+    )
+    with pytest.raises(ConnectionClosed, match=r"^the connection is closed: the server closed"):
+        subscription.next()
+    with pytest.raises(ConnectionClosed, match=r"^the connection is closed: the server closed"):
         client.scene()
-    with pytest.raises(hapticd.LocalError, match="the connection is closed"):
-        client.scene()
+    # nothing left to unsubscribe from, nor to close
+    subscription.close()
+    client.close()
+
+
+def test_a_client_closed_by_its_owner_is_misuse(fake_server):
+    client, _ = fake_server(lambda request: [done(request)])
+    client.close()
+    closed_here = r"^the connection is closed \(close\(\) was called\)$"
+    with pytest.raises(hapticd.LocalError, match=closed_here):
+        client.clear_scene()
+
+
+def big_scene(objects):
+    """A scene description of that many spheres (about 90 bytes each)."""
+    scene = pb.SceneDescription(version=5, tolerance=1e-4)
+    for i in range(objects):
+        info = scene.objects.add(name=f"ball-{i:05d}", shape="sphere", representation="sphere")
+        info.pose.position.x = i
+        info.pose.orientation.w = 1
+        info.material.stiffness = 1000 + i
+        info.bounds_min.x, info.bounds_max.x = i - 1, i + 1
+    return scene
+
+
+def test_threads_sharing_a_client_each_get_their_own_replies(fake_server):
+    """Scene readers (1.3 MB replies), ray casters (answers echo the question) and a
+    subscriber (a sample after every cast) share one client; each gets its own."""
+    scene = big_scene(15_000)
+    assert scene.ByteSize() > 1_300_000
+    subscriptions = []
+
+    def handler(request):
+        kind = request.WhichOneof("body")
+        if kind == "get_scene":
+            return [pb.Reply(request_id=request.request_id, scene=scene)]
+        if kind == "subscribe":
+            subscriptions.append(request.request_id)
+            return [telemetry(request.request_id, 0)]
+        if kind == "unsubscribe":
+            return [done(request)]
+        origin = request.ray_cast.origin
+        hit = pb.RayHit(hit=True, distance=1, point=origin, normal=pb.Vec3(z=1), object="x")
+        replies = [pb.Reply(request_id=request.request_id, ray_hit=hit)]
+        if subscriptions:
+            replies.append(telemetry(subscriptions[0], int(origin.x * 1000 + origin.y)))
+        return replies
+
+    client, _ = fake_server(handler)
+    client.timeout_s = 30
+    subscription = client.subscribe(1000)
+    casts = 100
+    results: dict[str, object] = {}
+
+    def read_scene(name):
+        results[name] = [len(client.scene().objects) for _ in range(2)]
+
+    def cast(name, row):
+        points = [client.ray_cast((row, k, 1), (0, 0, -1)).point for k in range(casts)]
+        results[name] = [tuple(p) for p in points]
+
+    def watch(name):
+        results[name] = [subscription.next().server_time_ns for _ in range(2 * casts)]
+
+    threads = [threading.Thread(target=read_scene, args=(f"scene{i}",)) for i in range(3)]
+    threads += [threading.Thread(target=cast, args=(f"cast{r}", r)) for r in (1, 2)]
+    threads.append(threading.Thread(target=watch, args=("watch",)))
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=60)
+    assert not any(thread.is_alive() for thread in threads)
+    for i in range(3):
+        assert results[f"scene{i}"] == [15_000] * 2
+    for r in (1, 2):
+        assert results[f"cast{r}"] == [(r, k, 1) for k in range(casts)]
+    # every cast's sample, each caster's in its order (the first sample came at subscribe)
+    samples = results["watch"]
+    every_cast = {r * 1000 + k for r in (1, 2) for k in range(casts)}
+    assert samples[0] == 0 and len(set(samples[1:])) == 2 * casts - 1
+    assert set(samples[1:]) <= every_cast
+    for r in (1, 2):
+        mine = [t - r * 1000 for t in samples if r * 1000 <= t < r * 1000 + casts]
+        assert mine == sorted(mine)
+    subscription.close()
+    assert not client.closed
 
 
 def serve_hello_once(listener, protocol_version):

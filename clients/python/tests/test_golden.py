@@ -93,6 +93,9 @@ def test_the_clients_handshake_matches_the_golden_open_session(fake_server):
         pytest.skip("no open_session vector")
 
     def opened(request):
+        # closing the client closes the session it opened
+        if request.HasField("close_session"):
+            return [pb.Reply(request_id=request.request_id, done=pb.Done())]
         body = pb.SessionOpened(session_id=1, session_key=bytes(32), udp_endpoint="127.0.0.1:9")
         return [pb.Reply(request_id=request.request_id, session_opened=body)]
 

@@ -27,8 +27,15 @@ def _shown(value: Any) -> str:
     return repr(value)
 
 
+def _not_a_number(value: Any) -> bool:
+    """Whether value is text or a truth value, which float() would take for a number."""
+    return isinstance(value, (str, bytes, bool, np.bool_, np.str_, np.bytes_))
+
+
 def number(value: Any, name: str) -> float:
-    """value as a finite float."""
+    """value as a finite float: an int, a float or a numpy number, not text or a bool."""
+    if _not_a_number(value):
+        raise LocalError(f"{name} is {_shown(value)}; it must be a number")
     try:
         result = float(value)
     except (TypeError, ValueError) as exc:
@@ -63,11 +70,18 @@ def in_range(value: Any, name: str, low: float, high: float) -> float:
 
 
 def as_floats(value: ArrayLike, name: str) -> FloatArray:
-    """value as a float64 array of any shape (values unchecked)."""
+    """value as a float64 array of any shape (values unchecked); text and truth values
+    are not numbers."""
     try:
-        return np.asarray(value, dtype=np.float64)
+        given = np.asarray(value)
+        textual = given.dtype.kind in "USb" or (
+            given.dtype.kind == "O" and any(_not_a_number(v) for v in given.ravel())
+        )
+        if not textual:
+            return np.asarray(given, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise LocalError(f"{name} is {_shown(value)}; it must be numbers") from exc
+    raise LocalError(f"{name} is {_shown(value)}; it must be numbers")
 
 
 def as_indices(value: ArrayLike, name: str) -> NDArray[Any]:
@@ -195,6 +209,13 @@ def quaternion_to_rotation(q: FloatArray) -> FloatArray:
         ],
         dtype=np.float64,
     )
+
+
+def flag(value: Any, name: str) -> bool:
+    """value as a bool: True or False (numpy's too), nothing else."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise LocalError(f"{name} is {_shown(value)}; it must be True or False")
+    return bool(value)
 
 
 def choice(value: str, name: str, allowed: tuple[str, ...]) -> str:

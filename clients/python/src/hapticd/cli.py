@@ -7,8 +7,11 @@
     bench latency        round-trip percentiles of a still device; one JSON line
 
 Every command takes --server HOST:PORT (default $HAPTICD_SERVER, else 127.0.0.1:7460,
-the server's default). Exit status: 0 done, 2 bad arguments or input files (the message
-names the problem), 1 the server refused, failed or could not be reached.
+the server's default). Options are spelled out in full; an unknown one is refused.
+Exit status: 0 done, 2 bad arguments or input files (the message names the problem),
+1 the server refused, failed or could not be reached. What a command prints is strict
+JSON: a number JSON cannot hold (an infinite bound, an unbounded representation
+error) is printed as the string "inf", "-inf" or "nan".
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from hapticd._connection import parse_address
 from hapticd.client import Client, connect
 from hapticd.demo import Trace, plot_trace, run_demo, run_latency_bench
 from hapticd.errors import HapticdError, LocalError
-from hapticd.objects import Material, Mesh, ObjectSpec, Pose
+from hapticd.objects import DEFAULT_STIFFNESS, Material, Mesh, ObjectSpec, Pose
 from hapticd.results import ObjectInfo, SceneInfo
 from hapticd.scene_files import MESH_SUFFIXES, read_mesh_file, read_scene_file
 
@@ -65,16 +68,20 @@ def _server_options(parser: argparse.ArgumentParser) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of every command."""
+    # no abbreviations: an unknown --flag is refused as unknown, not taken for another
     parser = argparse.ArgumentParser(
         prog="python -m hapticd",
         description="hapticd's command line." + __doc__.split(":", 1)[1],
         formatter_class=argparse.RawDescriptionHelpFormatter,
+        allow_abbrev=False,
     )
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    scene = commands.add_parser("scene", help="load, show or clear the scene")
+    scene = commands.add_parser("scene", help="load, show or clear the scene", allow_abbrev=False)
     scene_commands = scene.add_subparsers(dest="scene_command", required=True, metavar="ACTION")
-    load = scene_commands.add_parser("load", help="add the objects of a scene or mesh file")
+    load = scene_commands.add_parser(
+        "load", help="add the objects of a scene or mesh file", allow_abbrev=False
+    )
     load.add_argument("file", help='JSON scene file ({"scene": {"objects": [...]}}) or OBJ/STL/PLY')
     load.add_argument("--replace", action="store_true", help="clear the scene first")
     load.add_argument("--name", help="a mesh file's object name (default: the file's stem)")
@@ -89,23 +96,32 @@ def build_parser() -> argparse.ArgumentParser:
     load.add_argument(
         "--scale", type=_positive, default=1.0, help="a mesh file's scale (0.001: mm)"
     )
-    load.add_argument("--stiffness", type=_positive, default=2000.0, help="a mesh file's N/m")
+    load.add_argument(
+        "--stiffness",
+        type=_positive,
+        default=DEFAULT_STIFFNESS,
+        help="a mesh file's N/m (default %(default)s, the server's default)",
+    )
     load.add_argument("--representation", default="auto", help="a mesh file's representation")
     _server_options(load)
-    show = scene_commands.add_parser("show", help="print the scene as JSON")
+    show = scene_commands.add_parser("show", help="print the scene as JSON", allow_abbrev=False)
     _server_options(show)
-    clear = scene_commands.add_parser("clear", help="remove every object")
+    clear = scene_commands.add_parser("clear", help="remove every object", allow_abbrev=False)
     _server_options(clear)
 
-    demo = commands.add_parser("demo", help="stroke the scene with a simulated device")
+    demo = commands.add_parser(
+        "demo", help="stroke the scene with a simulated device", allow_abbrev=False
+    )
     demo.add_argument("--seconds", type=_positive, default=4.0, help="how long (s)")
     demo.add_argument("--rate-hz", type=_positive, default=1000.0, help="the device's rate")
     demo.add_argument("--plot", metavar="FILE.png", help="draw force and position over time")
     _server_options(demo)
 
-    bench = commands.add_parser("bench", help="measure the realtime channel")
+    bench = commands.add_parser("bench", help="measure the realtime channel", allow_abbrev=False)
     bench_commands = bench.add_subparsers(dest="bench_command", required=True, metavar="WHAT")
-    latency = bench_commands.add_parser("latency", help="round trips of a still device")
+    latency = bench_commands.add_parser(
+        "latency", help="round trips of a still device", allow_abbrev=False
+    )
     latency.add_argument("--seconds", type=_positive, default=5.0, help="how long (s)")
     latency.add_argument("--rate-hz", type=_positive, default=1000.0, help="the device's rate")
     _server_options(latency)
@@ -160,9 +176,17 @@ def _load(client: Client, specs: list[ObjectSpec], replace: bool) -> dict[str, A
     return {"added": [spec.name for spec in specs], "scene_version": version}
 
 
+def _finite_or_text(value: float) -> float | str:
+    """value for JSON, which has no infinities or NaN: those as "inf", "-inf", "nan"."""
+    value = float(value)
+    if np.isfinite(value):
+        return value
+    return "nan" if np.isnan(value) else ("inf" if value > 0 else "-inf")
+
+
 def _vector(values: np.ndarray[Any, Any]) -> list[float | str]:
-    """A vector for JSON: infinities as strings, since JSON has none."""
-    return [float(v) if np.isfinite(v) else ("inf" if v > 0 else "-inf") for v in values]
+    """A vector for JSON (see _finite_or_text)."""
+    return [_finite_or_text(v) for v in values]
 
 
 def _object_json(info: ObjectInfo) -> dict[str, Any]:
@@ -171,16 +195,16 @@ def _object_json(info: ObjectInfo) -> dict[str, Any]:
         "name": info.name,
         "shape": info.shape,
         "representation": info.representation,
-        "representation_error": info.representation_error,
+        "representation_error": _finite_or_text(info.representation_error),
         "position": _vector(info.pose.position),
         "orientation": _vector(info.pose.orientation),
         "bounds_min": _vector(info.bounds_min),
         "bounds_max": _vector(info.bounds_max),
         "material": {
-            "stiffness": material.stiffness,
-            "damping": material.damping,
-            "static_friction": material.static_friction,
-            "dynamic_friction": material.dynamic_friction,
+            "stiffness": _finite_or_text(material.stiffness),
+            "damping": _finite_or_text(material.damping),
+            "static_friction": _finite_or_text(material.static_friction),
+            "dynamic_friction": _finite_or_text(material.dynamic_friction),
             "force_shading": material.force_shading,
         },
         "kinematic": info.kinematic,
@@ -192,9 +216,20 @@ def scene_json(scene: SceneInfo) -> dict[str, Any]:
     """The scene as a JSON-ready dict."""
     return {
         "version": scene.version,
-        "tolerance": scene.tolerance,
+        "tolerance": _finite_or_text(scene.tolerance),
         "objects": [_object_json(info) for info in scene.objects],
     }
+
+
+def _strict_json(value: Any) -> Any:
+    """value with every float JSON cannot hold as text (see _finite_or_text)."""
+    if isinstance(value, float):
+        return _finite_or_text(value)
+    if isinstance(value, dict):
+        return {key: _strict_json(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_strict_json(item) for item in value]
+    return value
 
 
 def _run(args: argparse.Namespace) -> dict[str, Any]:
@@ -232,7 +267,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.exit(1, f"hapticd: {type(exc).__name__}: {exc}\n")
     except KeyboardInterrupt:
         return 130
-    print(json.dumps(result))
+    print(json.dumps(_strict_json(result), allow_nan=False))
     return 0
 
 

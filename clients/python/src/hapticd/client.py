@@ -1,19 +1,26 @@
 """The control-channel client: build and edit the scene, query it, open device sessions
 and watch them, with numpy arrays in and out.
 
-    with hapticd.connect("127.0.0.1:7000") as client:
+    with hapticd.connect("127.0.0.1:7460") as client:
         client.add_sphere("ball", 0.05, position=(0, 0, 0.05), material={"stiffness": 2000})
         hit = client.ray_cast(origin=(0, 0, 1), direction=(0, 0, -1))
 
-Arguments are validated before anything is sent (LocalError naming the bad value); the
-server's refusals raise RemoteError with its code and message. Every call takes an
-explicit timeout_s (default: the client's). A Client is not thread-safe.
+Arguments are validated before anything is sent (LocalError naming the bad value, or
+the unknown keyword); the server's refusals raise RemoteError with its code and
+message. Every call takes an explicit timeout_s (default: the client's). Threads may
+share a Client: each request waits for its own reply, and subscriptions get their own
+samples. Closing a Client (or leaving its with block) closes the device sessions it
+opened and has not closed.
 """
 
 from __future__ import annotations
 
+import collections
+import difflib
+import functools
 import ssl
-from collections.abc import Callable, Iterable, Iterator
+import threading
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from typing import Any, TypedDict, TypeVar, Unpack, cast
 
 import numpy as np
@@ -23,7 +30,7 @@ from numpy.typing import ArrayLike
 from hapticd import _codec as codec
 from hapticd import _validate as check
 from hapticd._connection import Connection, parse_address, remote_error
-from hapticd.errors import LocalError, ProtocolError, RemoteError
+from hapticd.errors import HapticdError, LocalError, ProtocolError, RemoteError
 from hapticd.objects import (
     Box,
     Capsule,
@@ -35,6 +42,7 @@ from hapticd.objects import (
     Pose,
     Shape,
     Sphere,
+    check_material_fields,
     material_from,
 )
 from hapticd.results import (
@@ -61,6 +69,8 @@ FORCE_METHODS = {
 }
 MAX_RATE_HZ = 10_000.0
 MAX_TELEMETRY_RATE_HZ = 1_000.0
+# How many closed session ids a client remembers, so that closing one twice is quiet.
+CLOSED_SESSIONS_REMEMBERED = 1024
 
 ResultT = TypeVar("ResultT")
 BodyT = TypeVar("BodyT", bound=Message)
@@ -69,8 +79,9 @@ BodyT = TypeVar("BodyT", bound=Message)
 class Placement(TypedDict, total=False):
     """Where an added object goes and how it feels: position (m, (3,)), rotation (a
     quaternion (w, x, y, z) or a 3x3 matrix; None: identity), material (a Material or a
-    dict of its fields; None: stiffness 1000 N/m), kinematic with its velocity (m/s) and
-    angular_velocity (rad/s), and the request's timeout_s."""
+    dict of its fields; None: the server's default, stiffness DEFAULT_STIFFNESS =
+    1000 N/m), kinematic (a bool) with its velocity (m/s) and angular_velocity (rad/s),
+    and the request's timeout_s. Any other keyword is refused (LocalError naming it)."""
 
     position: ArrayLike
     rotation: ArrayLike | None
@@ -79,6 +90,23 @@ class Placement(TypedDict, total=False):
     velocity: ArrayLike
     angular_velocity: ArrayLike
     timeout_s: float | None
+
+
+PLACEMENT_KEYWORDS = tuple(Placement.__annotations__)
+
+
+def _check_keywords(call: str, given: Mapping[str, object], own: tuple[str, ...] = ()) -> None:
+    """LocalError naming the first keyword of given that is not a Placement's."""
+    unknown = [key for key in given if key not in PLACEMENT_KEYWORDS]
+    if not unknown:
+        return
+    takes = own + PLACEMENT_KEYWORDS
+    guess = difflib.get_close_matches(unknown[0], takes, n=1)
+    hint = f" (did you mean {guess[0]!r}?)" if guess else ""
+    raise LocalError(
+        f"{call} got an unknown keyword argument {unknown[0]!r}{hint}; it takes "
+        f"{', '.join(takes)}"
+    )
 
 
 def connect(
@@ -141,16 +169,45 @@ class Client:
         self.timeout_s = timeout_s
         self.server_name = server_name
         self.udp_endpoint = udp_endpoint
+        # device sessions opened here and not closed yet, and the latest ones closed
+        self._sessions: set[int] = set()
+        self._closed_sessions: collections.OrderedDict[int, None] = collections.OrderedDict()
+        self._sessions_lock = threading.Lock()
 
     def __enter__(self) -> Client:
         return self
 
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
+    def __exit__(self, exc_type: type[BaseException] | None, *exc_info: object) -> None:
+        # an exception already on its way out says more than a failure to clean up
+        if exc_type is None:
+            self.close()
+            return
+        try:
+            self.close()
+        except HapticdError:
+            pass
 
     def close(self) -> None:
-        """Closes the connection; the server closes its subscriptions, not its sessions."""
+        """Closes the device sessions this client opened and has not closed (one the
+        server has already reclaimed is skipped), then the connection; the server ends
+        the connection's subscriptions. Idempotent. When a session cannot be closed,
+        the connection is closed all the same and the first such error raised."""
+        failure: HapticdError | None = None
+        with self._sessions_lock:
+            open_sessions = sorted(self._sessions)
+        for session_id in open_sessions:
+            if self._connection.closed:
+                break
+            try:
+                self.close_session(session_id)
+            except RemoteError as exc:
+                if exc.code != "NOT_FOUND" and failure is None:
+                    failure = exc
+            except HapticdError as exc:
+                failure = failure or exc
         self._connection.close()
+        if failure is not None:
+            raise failure
 
     @property
     def closed(self) -> bool:
@@ -180,16 +237,19 @@ class Client:
 
     def add_sphere(self, name: str, radius: float, **placement: Unpack[Placement]) -> int:
         """Adds a sphere of radius (m) centred at position."""
+        _check_keywords("add_sphere", placement)
         return self._add(name, Sphere(radius), placement)
 
     def add_box(self, name: str, half_extents: ArrayLike, **placement: Unpack[Placement]) -> int:
         """Adds a box of half_extents (m, (3,), along its axes) centred at position."""
+        _check_keywords("add_box", placement)
         return self._add(name, Box(check.as_floats(half_extents, "half_extents")), placement)
 
     def add_capsule(
         self, name: str, radius: float, half_length: float, **placement: Unpack[Placement]
     ) -> int:
         """Adds a capsule: radius (m) around a segment of half_length (m) along its z axis."""
+        _check_keywords("add_capsule", placement)
         return self._add(name, Capsule(radius, half_length), placement)
 
     def add_plane(
@@ -197,6 +257,7 @@ class Client:
     ) -> int:
         """Adds the half-space behind a plane through position: its outward normal is the
         body's z axis, or `normal` (non-zero, (3,)) when given instead of a rotation."""
+        _check_keywords("add_plane", placement, ("normal",))
         if normal is not None:
             if placement.get("rotation") is not None:
                 raise LocalError("give add_plane a normal or a rotation, not both")
@@ -205,6 +266,7 @@ class Client:
 
     def add_convex(self, name: str, points: ArrayLike, **placement: Unpack[Placement]) -> int:
         """Adds the convex hull of points (m, (N, 3), N >= 4, in the body frame)."""
+        _check_keywords("add_convex", placement)
         return self._add(name, Convex(check.as_floats(points, "points")), placement)
 
     def add_mesh(
@@ -221,6 +283,7 @@ class Client:
         ("auto": the cheapest within the scene's tolerance, or sphere, box, capsule,
         convex, mesh); kept as a mesh, its queries run on `ray_backend` ("default": the
         server's, "native" or "embree")."""
+        _check_keywords("add_mesh", placement, ("representation", "ray_backend"))
         mesh = Mesh(
             check.as_floats(vertices, "vertices"),
             check.as_indices(triangles, "triangles"),
@@ -239,6 +302,7 @@ class Client:
     ) -> int:
         """Adds the mesh of an OBJ, STL or PLY file, its coordinates times scale (e.g.
         0.001 for a file in millimetres)."""
+        _check_keywords("add_mesh_file", placement, ("representation", "scale"))
         scale = check.positive(scale, "scale")
         vertices, triangles = read_mesh_file(path)
         return self._add(name, Mesh(vertices * scale, triangles, representation), placement)
@@ -259,12 +323,28 @@ class Client:
     def set_material(
         self, name: str, material: Material | dict[str, Any], *, timeout_s: float | None = None
     ) -> int:
-        """Gives the object called name a new material."""
-        message = pb.SetMaterial(
-            name=check.object_name(name),
-            material=codec.material_message(material_from(material)),
-        )
+        """Changes the material of the object called name. A dict changes only the
+        fields it names, e.g. {"damping": 3}: the others keep the object's values, read
+        from the server's scene first (two requests, so an edit another client makes in
+        between is overwritten). A Material replaces the whole material. LocalError for
+        a field that is not a Material's (named); RemoteError NOT_FOUND when there is no
+        such object."""
+        check.object_name(name)
+        if isinstance(material, dict):
+            changes = check_material_fields(material)
+            current = self._current_material(name, timeout_s)
+            new = material_from(changes) if current is None else current.updated(changes)
+        else:
+            new = material_from(material)
+        message = pb.SetMaterial(name=name, material=codec.material_message(new))
         return self._edit("set_material", message, timeout_s)
+
+    def _current_material(self, name: str, timeout_s: float | None) -> Material | None:
+        """The material of the object called name as the server holds it (None: none)."""
+        for info in self.scene(timeout_s=timeout_s).objects:
+            if info.name == name:
+                return info.material
+        return None
 
     def move_kinematic(
         self,
@@ -437,6 +517,8 @@ class Client:
         # a wildcard bind is reached where the control channel is
         if udp_host in ("0.0.0.0", "::"):
             udp_host = self._connection.peer_host
+        with self._sessions_lock:
+            self._sessions.add(opened.session_id)
         return SessionInfo(
             session_id=opened.session_id,
             key=opened.session_key,
@@ -445,15 +527,45 @@ class Client:
             max_datagram=opened.max_datagram,
             device_type=device_type,
             rate_hz=rate,
+            close_session=functools.partial(self._close_own_session, opened.session_id),
         )
 
     def close_session(self, session_id: int, *, timeout_s: float | None = None) -> None:
-        """Closes a device session; RemoteError NOT_FOUND if there is none."""
-        _body(
-            self._call("close_session", pb.CloseSession(session_id=session_id), timeout_s),
-            "done",
-            pb.Done,
-        )
+        """Closes a device session. Closing one this client has closed already does
+        nothing; RemoteError NOT_FOUND when the server has no such session (never
+        opened, or reclaimed after its timeout)."""
+        with self._sessions_lock:
+            if session_id in self._closed_sessions:
+                return
+        try:
+            _body(
+                self._call("close_session", pb.CloseSession(session_id=session_id), timeout_s),
+                "done",
+                pb.Done,
+            )
+        except RemoteError as exc:
+            # the server has none: nothing of ours to close later
+            if exc.code == "NOT_FOUND":
+                with self._sessions_lock:
+                    self._sessions.discard(session_id)
+            raise
+        with self._sessions_lock:
+            self._sessions.discard(session_id)
+            self._closed_sessions[session_id] = None
+            while len(self._closed_sessions) > CLOSED_SESSIONS_REMEMBERED:
+                self._closed_sessions.popitem(last=False)
+
+    def _close_own_session(self, session_id: int) -> None:
+        """Closes a session this client opened, unless it is closed or gone already (the
+        client closed, the session closed, or the server reclaimed it)."""
+        with self._sessions_lock:
+            if session_id not in self._sessions or self._connection.closed:
+                return
+        try:
+            self.close_session(session_id)
+        except RemoteError as exc:
+            if exc.code != "NOT_FOUND":
+                raise
 
     # ---- telemetry ----
 
@@ -478,8 +590,7 @@ class Client:
         )
         message = pb.Subscribe(rate_hz=rate, session_ids=list(session_ids))
         connection = self._connection
-        subscription_id = connection.send("subscribe", message, self.timeout_s)
-        connection.start_subscription(subscription_id)
+        subscription_id = connection.send("subscribe", message, self.timeout_s, subscription=True)
         # the server answers a Subscribe at once: its first sample or an error
         try:
             first = _telemetry(connection.next_subscription_reply(subscription_id, self.timeout_s))
@@ -558,7 +669,7 @@ def _spec(name: str, shape: Shape, placement: Placement) -> ObjectSpec:
         shape=shape,
         pose=Pose.of(placement.get("position", (0, 0, 0)), placement.get("rotation")),
         material=material_from(placement.get("material")),
-        kinematic=bool(placement.get("kinematic", False)),
+        kinematic=check.flag(placement.get("kinematic", False), "kinematic"),
         velocity=check.as_floats(placement.get("velocity", (0, 0, 0)), "velocity"),
         angular_velocity=check.as_floats(
             placement.get("angular_velocity", (0, 0, 0)), "angular_velocity"

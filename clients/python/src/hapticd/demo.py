@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -20,6 +20,9 @@ from hapticd import _validate as check
 from hapticd.client import Client
 from hapticd.device import DeviceSession, summarize_rtt
 from hapticd.sim_device import DeviceSpec, HandSpec, SimImpedanceDevice
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 # The stroke over the default scene (floor z = 0; box face at x = 0.10): start above the
 # floor, press 5 mm into it, slide 2 cm into the box's side, lift back, rest; 2 s a cycle.
@@ -148,7 +151,6 @@ def run_demo(
             device.advance(t)
             ticker.wait()
         summary = _loss_summary(session, ticker)
-    client.close_session(info.session_id)
     return {
         "seconds": seconds,
         "ticks": ticks,
@@ -174,12 +176,21 @@ def run_latency_bench(
             session.exchange(BENCH_POSITION, timeout_s=command_timeout_s)
             ticker.wait()
         summary = _loss_summary(session, ticker)
-    client.close_session(info.session_id)
     return {"seconds": seconds, "rate_hz": rate_hz, "samples": len(session.rtt_ns), **summary}
 
 
 def plot_trace(trace: Trace, path: str) -> None:
     """Draws force and position over time into an image file (matplotlib, Agg)."""
+    import matplotlib.pyplot as plt
+
+    figure = draw_trace(trace)
+    figure.savefig(path, dpi=120)
+    plt.close(figure)
+
+
+def draw_trace(trace: Trace) -> Figure:
+    """The figure of plot_trace: rendered force over time (the ticks in contact shaded
+    grey, one band per run of them, labelled "contact") above device position (mm)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -212,5 +223,4 @@ def plot_trace(trace: Trace, path: str) -> None:
         axes.grid(True, alpha=0.3)
     force_axes.set_title("hapticd demo: a simulated hand strokes the default scene")
     figure.tight_layout()
-    figure.savefig(path, dpi=120)
-    plt.close(figure)
+    return figure

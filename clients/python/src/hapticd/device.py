@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike
 
 from hapticd._datagram import MAX_DATAGRAM_BYTES, decode_command, encode_state
 from hapticd._validate import FloatArray
-from hapticd.errors import ConnectionClosed, LocalError, ProtocolError
+from hapticd.errors import ConnectionClosed, HapticdError, LocalError, ProtocolError
 from hapticd.results import SessionInfo
 from hapticd.v1 import hapticd_pb2 as pb
 
@@ -109,7 +109,8 @@ def _command(message: pb.DeviceCommand, rtt_ns: int) -> Command:
 
 class DeviceSession:
     """One device's end of a session opened with Client.open_session (see the module's
-    theory of operation). Not thread-safe; close() or use as a context manager."""
+    theory of operation). Not thread-safe; close() or leave its with block to end the
+    session on the server too."""
 
     def __init__(self, info: SessionInfo) -> None:
         self.info = info
@@ -129,14 +130,26 @@ class DeviceSession:
     def __enter__(self) -> DeviceSession:
         return self
 
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
+    def __exit__(self, exc_type: type[BaseException] | None, *exc_info: object) -> None:
+        # an exception already on its way out says more than a failure to clean up
+        if exc_type is None:
+            self.close()
+            return
+        try:
+            self.close()
+        except HapticdError:
+            pass
 
     def close(self) -> None:
-        """Closes the UDP socket (the server's session stays until closed or timed out)."""
-        if self._socket is not None:
-            self._socket.close()
-            self._socket = None
+        """Closes the UDP socket and then the server's session, through the Client that
+        opened it (info.close_session: a CloseSession; nothing when that client, or the
+        session, is closed already). Idempotent."""
+        if self._socket is None:
+            return
+        self._socket.close()
+        self._socket = None
+        if self.info.close_session is not None:
+            self.info.close_session()
 
     @property
     def sequence(self) -> int:

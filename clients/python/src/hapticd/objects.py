@@ -6,6 +6,8 @@ float64 (points) or uint32 (triangle indices) numpy arrays.
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -18,6 +20,9 @@ from hapticd.errors import LocalError
 
 REPRESENTATIONS = ("auto", "sphere", "box", "capsule", "convex", "mesh")
 RAY_BACKENDS = ("default", "native", "embree")
+# The stiffness (N/m) of a material that does not give one: the server's default
+# (server/scene/material.h), for add_* and scene load alike.
+DEFAULT_STIFFNESS = 1000.0
 
 
 def _zeros() -> FloatArray:
@@ -34,7 +39,7 @@ class Material:
     >= 0), static and dynamic friction coefficients (>= 0, dynamic <= static), and
     force shading (None: the server's default, on)."""
 
-    stiffness: float = 1000.0
+    stiffness: float = DEFAULT_STIFFNESS
     damping: float = 0.0
     static_friction: float = 0.0
     dynamic_friction: float = 0.0
@@ -52,6 +57,15 @@ class Material:
             )
         object.__setattr__(self, "static_friction", static)
         object.__setattr__(self, "dynamic_friction", dynamic)
+        if self.force_shading is not None:
+            object.__setattr__(
+                self, "force_shading", check.flag(self.force_shading, "material.force_shading")
+            )
+
+    def updated(self, changes: Mapping[str, Any]) -> Material:
+        """This material with the fields changes names set to its values, the others
+        kept; LocalError for a field that is not a Material's."""
+        return dataclasses.replace(self, **check_material_fields(changes))
 
 
 @dataclass(frozen=True, eq=False)
@@ -194,18 +208,36 @@ class ObjectSpec:
         object.__setattr__(self, "angular_velocity", angular)
 
 
+MATERIAL_FIELDS = tuple(f.name for f in dataclasses.fields(Material))
+
+
+def check_material_fields(value: Mapping[str, Any]) -> dict[str, Any]:
+    """value as a dict of Material fields, each checked on its own (a stiffness > 0,
+    the others >= 0, force_shading a bool or None); LocalError naming the first unknown
+    field or bad value. How the frictions compare is the Material's to check."""
+    checked: dict[str, Any] = {}
+    for key, item in value.items():
+        if key not in MATERIAL_FIELDS:
+            raise LocalError(
+                f"material.{key} is not a material field; a material has "
+                f"{', '.join(MATERIAL_FIELDS)}"
+            )
+        if key == "force_shading":
+            checked[key] = None if item is None else check.flag(item, "material.force_shading")
+        elif key == "stiffness":
+            checked[key] = check.positive(item, "material.stiffness")
+        else:
+            checked[key] = check.non_negative(item, f"material.{key}")
+    return checked
+
+
 def material_from(value: Material | dict[str, Any] | None) -> Material:
-    """A Material from a Material, a dict of its fields, or None (the defaults)."""
+    """A Material from a Material, a dict of its fields (the others their defaults),
+    or None (the defaults)."""
     if value is None:
         return Material()
     if isinstance(value, Material):
         return value
     if isinstance(value, dict):
-        unknown = set(value) - set(Material.__dataclass_fields__)
-        if unknown:
-            raise LocalError(
-                f"material has unknown field(s) {sorted(unknown)}; it takes "
-                f"{', '.join(Material.__dataclass_fields__)}"
-            )
-        return Material(**value)
+        return Material(**check_material_fields(value))
     raise LocalError(f"material is {value!r}; it must be a Material, a dict or None")

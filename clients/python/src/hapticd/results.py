@@ -5,6 +5,7 @@ world frame W, SI units; anything else carries a suffix (_us, _ns, _hz).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -103,7 +104,10 @@ class Contact:
 class SessionInfo:
     """An open device session: its id, the 32-byte key its datagrams are tagged with,
     the server's UDP endpoint (host, port), the largest datagram (bytes), and what the
-    handshake asked for (device type "impedance" or "admittance", the state rate)."""
+    handshake asked for (device type "impedance" or "admittance", the state rate).
+    close_session, set by the Client that opened it, closes the server's session; the
+    DeviceSession made from this info calls it when it closes (None: nothing to close
+    from here, e.g. an info built by hand)."""
 
     session_id: int
     key: bytes = field(repr=False)
@@ -112,6 +116,7 @@ class SessionInfo:
     max_datagram: int
     device_type: str
     rate_hz: float
+    close_session: Callable[[], None] | None = field(default=None, repr=False, compare=False)
 
 
 @dataclass(frozen=True)

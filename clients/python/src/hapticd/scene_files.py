@@ -1,8 +1,17 @@
 """Readers for what a scene is built from: mesh files (OBJ, STL, PLY, through trimesh)
 and JSON scene files in the scenario format's "scene" section
 ({"scene": {"objects": [...]}}, the object fields of ../shared/scenarios/FORMAT.md and
-its extensions: "motion", "representation", material "force_shading"). A whole
-scenario file is accepted too; only its "scene" is read.
+its extensions: "motion", a mesh's "representation" and "ray_backend", material
+"force_shading", the scene's "tolerance"). A whole scenario file is accepted too; only
+its "scene" is read.
+
+A scene file is read as the server reads it (hapticd --scene FILE): strict JSON (no
+NaN or Infinity, no key twice in one object), no field the format does not name,
+numbers that are JSON numbers (not strings or true/false), rotations as 3x3 row-major
+matrices, integer triangle indices, and mesh files that are OBJ or STL. The golden
+files under tests/golden_scenes/ hold both readers to that. What the server checks
+on the geometry itself (a hull that is a solid, a mesh with a triangle of non-zero
+area, a representation a mesh can be pinned to) is left to the server.
 
 Every problem raises LocalError naming the file and the field, e.g.
 "scene.json: scene.objects[1].shape.radius is -1.0; it must be a finite number > 0".
@@ -22,6 +31,8 @@ from hapticd import _validate as check
 from hapticd._validate import FloatArray, IndexArray
 from hapticd.errors import LocalError
 from hapticd.objects import (
+    MATERIAL_FIELDS,
+    REPRESENTATIONS,
     Box,
     Capsule,
     Convex,
@@ -35,6 +46,12 @@ from hapticd.objects import (
 )
 
 MESH_SUFFIXES = (".obj", ".stl", ".ply")
+# The mesh files a scene file may name: those the server reads (server/scene/mesh_file.h).
+SCENE_MESH_SUFFIXES = (".obj", ".stl")
+# What may sit beside "scene" at the top: a whole scenario's sections.
+TOP_FIELDS = {"scene", "rate_hz", "duration_s", "avatar", "device", "hand", "channel", "control"}
+# A mesh's query backend as a scene file names it ("default" is not written there).
+FILE_RAY_BACKENDS = ("native", "embree")
 SHAPE_FIELDS = {
     "sphere": {"radius"},
     "box": {"half_extents"},
@@ -43,8 +60,16 @@ SHAPE_FIELDS = {
     "convex": {"points"},
     "mesh": {"vertices", "triangles", "file"},
 }
-OBJECT_FIELDS = {"name", "shape", "position", "rotation", "material", "motion", "representation"}
-MATERIAL_FIELDS = {"stiffness", "damping", "static_friction", "dynamic_friction", "force_shading"}
+OBJECT_FIELDS = {
+    "name",
+    "shape",
+    "position",
+    "rotation",
+    "material",
+    "motion",
+    "representation",
+    "ray_backend",
+}
 
 
 @dataclass(frozen=True)
@@ -79,15 +104,38 @@ def read_scene_file(path: str | pathlib.Path) -> SceneFile:
     """The objects of a JSON scene file; mesh "file" paths are relative to it."""
     file = pathlib.Path(path)
     try:
-        document = json.loads(file.read_text())
+        text = file.read_text()
     except OSError as exc:
         raise LocalError(f"scene file {str(file)!r} cannot be read: {exc.strerror}") from exc
+    try:
+        document = json.loads(
+            text, parse_constant=_refuse_constant, object_pairs_hook=_object_of_unique_keys
+        )
     except json.JSONDecodeError as exc:
         raise LocalError(f"scene file {str(file)!r} is not JSON: {exc}") from exc
+    except _NotStrictJson as exc:
+        raise LocalError(f"scene file {str(file)!r} is not strict JSON: {exc}") from exc
     try:
         return parse_scene(document, file.parent)
     except LocalError as exc:
         raise LocalError(f"{file}: {exc}") from exc
+
+
+class _NotStrictJson(Exception):
+    """JSON that Python's reader takes and the server's does not."""
+
+
+def _refuse_constant(name: str) -> Any:
+    raise _NotStrictJson(f"{name} is not a JSON number")
+
+
+def _object_of_unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    result: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in result:
+            raise _NotStrictJson(f"the key {key!r} appears twice in one object")
+        result[key] = value
+    return result
 
 
 def parse_scene(document: Any, base_dir: pathlib.Path) -> SceneFile:
@@ -96,14 +144,27 @@ def parse_scene(document: Any, base_dir: pathlib.Path) -> SceneFile:
         raise LocalError(
             'the document has no "scene" section; it must be {"scene": {"objects": [...]}}'
         )
+    _fields(document, "the document", TOP_FIELDS)
     scene = _fields(document["scene"], "scene", {"objects", "tolerance"})
     objects = scene.get("objects")
     if not isinstance(objects, list):
         raise LocalError(f"scene.objects is {objects!r}; it must be a list of objects")
-    specs = [_read_object(item, f"scene.objects[{i}]", base_dir) for i, item in enumerate(objects)]
+    specs: list[ObjectSpec] = []
+    for i, item in enumerate(objects):
+        spec = _read_object(item, f"scene.objects[{i}]", base_dir)
+        # names are unique in a scene
+        for j, earlier in enumerate(specs):
+            if earlier.name == spec.name:
+                raise LocalError(
+                    f"scene.objects[{i}].name is {spec.name!r}; scene.objects[{j}] has it already"
+                )
+        specs.append(spec)
     tolerance = scene.get("tolerance")
     return SceneFile(
-        specs, None if tolerance is None else check.positive(tolerance, "scene.tolerance")
+        specs,
+        None
+        if tolerance is None
+        else check.positive(_number(tolerance, "scene.tolerance"), "scene.tolerance"),
     )
 
 
@@ -113,8 +174,9 @@ def _fields(value: Any, where: str, allowed: set[str]) -> dict[str, Any]:
         raise LocalError(f"{where} is {value!r}; it must be a JSON object")
     unknown = sorted(set(value) - allowed)
     if unknown:
+        prefix = "" if where == "the document" else f"{where}."
         raise LocalError(
-            f"{where}.{unknown[0]} is not a field; {where} takes {', '.join(sorted(allowed))}"
+            f"{prefix}{unknown[0]} is not a field; {where} takes {', '.join(sorted(allowed))}"
         )
     return value
 
@@ -125,28 +187,103 @@ def _required(fields: dict[str, Any], where: str, name: str) -> Any:
     return fields[name]
 
 
+# ---- JSON values of the kinds the server's reader insists on ----
+
+
+def _number(value: Any, where: str) -> float:
+    """A JSON number (true and false are not numbers, nor is "0.1")."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise LocalError(f"{where} is {value!r}; it must be a number")
+    return check.number(value, where)
+
+
+def _list(value: Any, where: str, length: int | None = None) -> list[Any]:
+    """A JSON array, of the given length when one is given."""
+    if not isinstance(value, list):
+        raise LocalError(f"{where} is {value!r}; it must be an array")
+    if length is not None and len(value) != length:
+        raise LocalError(f"{where} has {len(value)} elements; it must have {length}")
+    return value
+
+
+def _vector3(value: Any, where: str) -> list[float]:
+    """[x, y, z] of JSON numbers."""
+    return [_number(v, f"{where}[{i}]") for i, v in enumerate(_list(value, where, 3))]
+
+
+def _vectors(value: Any, where: str) -> list[list[float]]:
+    """An array of [x, y, z]."""
+    return [_vector3(v, f"{where}[{i}]") for i, v in enumerate(_list(value, where))]
+
+
+def _rotation(value: Any, where: str) -> list[list[float]]:
+    """A 3x3 row-major rotation matrix (a quaternion is not a scene file's rotation)."""
+    rows = _list(value, where)
+    if len(rows) != 3:
+        raise LocalError(f"{where} has {len(rows)} rows; it must be a 3x3 matrix of 3 rows")
+    return [_vector3(row, f"{where}[{i}]") for i, row in enumerate(rows)]
+
+
+def _triangles(value: Any, where: str) -> list[list[int]]:
+    """An array of [i, j, k] of JSON integers (1.0 and true are not indices)."""
+    triangles = []
+    for t, triangle in enumerate(_list(value, where)):
+        corners = _list(triangle, f"{where}[{t}]", 3)
+        for c, index in enumerate(corners):
+            if isinstance(index, bool) or not isinstance(index, int):
+                raise LocalError(f"{where}[{t}][{c}] is {index!r}; it must be an integer index")
+        triangles.append(corners)
+    return triangles
+
+
+def _string(value: Any, where: str) -> str:
+    if not isinstance(value, str):
+        raise LocalError(f"{where} is {value!r}; it must be a string")
+    return value
+
+
+def _read_material(value: Any, where: str) -> Material:
+    """A material: stiffness required, the rest optional."""
+    fields = _fields(value, where, set(MATERIAL_FIELDS))
+    _required(fields, where, "stiffness")
+    values: dict[str, Any] = {}
+    for name, item in fields.items():
+        if name == "force_shading":
+            if not isinstance(item, bool):
+                raise LocalError(f"{where}.force_shading is {item!r}; it must be true or false")
+            values[name] = item
+        else:
+            values[name] = _number(item, f"{where}.{name}")
+    return Material(**values)
+
+
 def _read_object(value: Any, where: str, base_dir: pathlib.Path) -> ObjectSpec:
     """One object of the scene section."""
     fields = _fields(value, where, OBJECT_FIELDS)
     try:
+        name = _string(_required(fields, where, "name"), f"{where}.name")
         shape = _read_shape(
             _required(fields, where, "shape"),
             f"{where}.shape",
             base_dir,
             fields.get("representation"),
+            fields.get("ray_backend"),
         )
-        pose = Pose.of(_required(fields, where, "position"), fields.get("rotation"))
-        material_fields = _fields(
-            _required(fields, where, "material"), f"{where}.material", MATERIAL_FIELDS
+        position = _vector3(_required(fields, where, "position"), f"{where}.position")
+        rotation = fields.get("rotation")
+        pose = Pose.of(
+            position, None if rotation is None else _rotation(rotation, f"{where}.rotation")
         )
-        _required(material_fields, f"{where}.material", "stiffness")
-        material = Material(**material_fields)
+        material = _read_material(_required(fields, where, "material"), f"{where}.material")
         motion = fields.get("motion")
         velocities: dict[str, Any] = {}
         if motion is not None:
-            velocities = dict(_fields(motion, f"{where}.motion", {"velocity", "angular_velocity"}))
+            motion_fields = _fields(motion, f"{where}.motion", {"velocity", "angular_velocity"})
+            velocities = {
+                key: _vector3(item, f"{where}.motion.{key}") for key, item in motion_fields.items()
+            }
         return ObjectSpec(
-            name=_required(fields, where, "name"),
+            name=name,
             shape=shape,
             pose=pose,
             material=material,
@@ -160,30 +297,48 @@ def _read_object(value: Any, where: str, base_dir: pathlib.Path) -> ObjectSpec:
         raise LocalError(f"{where}: {exc}") from exc
 
 
-def _read_shape(value: Any, where: str, base_dir: pathlib.Path, representation: Any) -> Shape:
-    """The shape of an object; representation applies to meshes only."""
+def _read_shape(
+    value: Any, where: str, base_dir: pathlib.Path, representation: Any, ray_backend: Any
+) -> Shape:
+    """The shape of an object; representation and ray_backend apply to meshes only."""
     kind = value.get("type") if isinstance(value, dict) else None
     if kind not in SHAPE_FIELDS:
         raise LocalError(f"{where}.type is {kind!r}; it must be one of {', '.join(SHAPE_FIELDS)}")
     fields = _fields(value, where, SHAPE_FIELDS[kind] | {"type"})
-    if representation is not None and kind != "mesh":
-        raise LocalError(f"representation is only for mesh shapes; this shape is a {kind}")
+    for extension, given in (("representation", representation), ("ray_backend", ray_backend)):
+        if given is not None and kind != "mesh":
+            raise LocalError(f"{extension} is only for mesh shapes; this shape is a {kind}")
     if kind == "sphere":
-        return Sphere(_required(fields, where, "radius"))
+        return Sphere(_number(_required(fields, where, "radius"), f"{where}.radius"))
     if kind == "box":
-        return Box(_required(fields, where, "half_extents"))
+        half_extents = _vector3(_required(fields, where, "half_extents"), f"{where}.half_extents")
+        return Box(np.array(half_extents))
     if kind == "capsule":
-        return Capsule(_required(fields, where, "radius"), _required(fields, where, "half_length"))
+        return Capsule(
+            _number(_required(fields, where, "radius"), f"{where}.radius"),
+            _number(_required(fields, where, "half_length"), f"{where}.half_length"),
+        )
     if kind == "plane":
         return Plane()
     if kind == "convex":
-        return Convex(_required(fields, where, "points"))
+        return Convex(np.array(_vectors(_required(fields, where, "points"), f"{where}.points")))
     # a mesh: inline arrays or a file, not both
     if "file" in fields:
         if "vertices" in fields or "triangles" in fields:
             raise LocalError(f"{where} has a file and inline vertices or triangles; give one")
-        vertices, triangles = read_mesh_file(base_dir / str(fields["file"]))
+        file = _string(fields["file"], f"{where}.file")
+        if pathlib.Path(file).suffix.lower() not in SCENE_MESH_SUFFIXES:
+            raise LocalError(f"{where}.file is {file!r}; a scene file's mesh is an OBJ or STL file")
+        vertices, triangles = read_mesh_file(base_dir / file)
     else:
-        vertices = check.as_floats(_required(fields, where, "vertices"), "vertices")
-        triangles = check.as_indices(_required(fields, where, "triangles"), "triangles")
-    return Mesh(vertices, triangles, representation or "auto")
+        vertices = check.as_floats(
+            _vectors(_required(fields, where, "vertices"), f"{where}.vertices"), "vertices"
+        )
+        triangles = check.as_indices(
+            _triangles(_required(fields, where, "triangles"), f"{where}.triangles"), "triangles"
+        )
+    if representation is not None:
+        check.choice(_string(representation, "representation"), "representation", REPRESENTATIONS)
+    if ray_backend is not None:
+        check.choice(_string(ray_backend, "ray_backend"), "ray_backend", FILE_RAY_BACKENDS)
+    return Mesh(vertices, triangles, representation or "auto", ray_backend or "default")
