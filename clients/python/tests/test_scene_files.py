@@ -2,6 +2,8 @@
 each shape, mesh files relative to the scene file, and errors that name the field."""
 
 import json
+import pathlib
+import re
 
 import numpy as np
 import pytest
@@ -10,6 +12,7 @@ import trimesh
 from hapticd import Box, Capsule, Convex, LocalError, Mesh, Plane, Sphere
 from hapticd.scene_files import read_mesh_file, read_scene_file
 
+GOLDEN = pathlib.Path(__file__).resolve().parents[3] / "tests" / "golden_scenes"
 IDENTITY = [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
 MATERIAL = {"stiffness": 2000}
 
@@ -141,3 +144,73 @@ def test_a_file_that_is_not_json_or_has_no_scene_is_named(tmp_path):
     path.write_text("{}")
     with pytest.raises(LocalError, match='has no "scene" section'):
         read_scene_file(path)
+
+
+# ---- the golden scene files (tests/golden_scenes/README.md), the Python reader alone ----
+
+
+@pytest.mark.parametrize("path", sorted(GOLDEN.glob("valid-*.json")), ids=lambda p: p.name)
+def test_every_valid_golden_file_reads(path):
+    assert isinstance(read_scene_file(path).objects, list)
+
+
+@pytest.mark.parametrize("path", sorted(GOLDEN.glob("invalid-*.json")), ids=lambda p: p.name)
+def test_every_invalid_golden_file_is_refused_naming_its_field(path):
+    field = path.stem.split("-")[1].lower()
+    with pytest.raises(LocalError) as refused:
+        read_scene_file(path)
+    assert field in str(refused.value).replace(str(path), "FILE").lower()
+
+
+def test_the_golden_files_are_there():
+    assert len(list(GOLDEN.glob("valid-*.json"))) >= 5
+    assert len(list(GOLDEN.glob("invalid-*.json"))) >= 30
+
+
+def test_a_meshs_ray_backend_is_read(tmp_path):
+    mesh = {"type": "mesh", "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "triangles": [[0, 1, 2]]}
+    scene = read_scene_file(write_scene(tmp_path, [obj("m", mesh, ray_backend="embree")]))
+    assert scene.objects[0].shape.ray_backend == "embree"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('{"scene": {"objects": [], "tolerance": NaN}}', "NaN is not a JSON number"),
+        ('{"scene": {"objects": []}, "scene": {"objects": []}}', "the key 'scene' appears twice"),
+    ],
+)
+def test_json_the_server_would_not_read_is_refused(tmp_path, text, message):
+    path = tmp_path / "scene.json"
+    path.write_text(text)
+    with pytest.raises(LocalError, match=f"^scene file '{path}' is not strict JSON: {message}"):
+        read_scene_file(path)
+
+
+@pytest.mark.parametrize(
+    ("objects", "message"),
+    [
+        (
+            [obj("s", {"type": "sphere", "radius": "0.1"})],
+            r"^scene.objects\[0\].shape.radius is '0.1'; it must be a number$",
+        ),
+        (
+            [obj("s", {"type": "plane"}, rotation=[1, 0, 0, 0])],
+            r"^scene.objects\[0\].rotation has 4 rows; it must be a 3x3 matrix of 3 rows$",
+        ),
+        (
+            [obj("s", {"type": "plane"}), obj("s", {"type": "plane"})],
+            r"^scene.objects\[1\].name is 's'; scene.objects\[0\] has it already$",
+        ),
+        (
+            [obj("m", {"type": "mesh", "file": "part.ply"})],
+            r"^scene.objects\[0\].shape.file is 'part.ply'; a scene file's mesh is an OBJ or STL",
+        ),
+    ],
+)
+def test_what_the_server_refuses_the_reader_refuses(tmp_path, objects, message):
+    with pytest.raises(LocalError) as refused:
+        read_scene_file(write_scene(tmp_path, objects))
+    text = str(refused.value)
+    assert text.startswith(f"{tmp_path / 'scene.json'}: ")
+    assert re.match(message, text.split(": ", 1)[1])
