@@ -4,8 +4,9 @@
     ├── LocalError         you misused the API: a bad argument (named, with its value)
     ├── RemoteError        the server answered a request with an Error reply
     ├── ProtocolError      the server (or whatever is on the other end) broke the protocol
-    ├── ConnectionClosed   the connection ended, or could not be made
-    └── Timeout            no answer within the timeout the caller gave
+    ├── ConnectionClosed   the connection ended (the server hung up or died), or could
+    │                      not be made; every later call on it says so again, and why
+    └── Timeout            no answer within the timeout the caller gave (only then)
 
 LocalError is also a ValueError and Timeout a TimeoutError, so code that catches the
 built-in kinds keeps working. Wrapped exceptions are chained (`raise ... from exc`).
@@ -19,7 +20,8 @@ class HapticdError(Exception):
 
 
 class LocalError(HapticdError, ValueError):
-    """The caller misused the API (a bad argument, a closed client); nothing was sent."""
+    """The caller misused the API (a bad argument or keyword, a client it closed);
+    nothing was sent."""
 
 
 class RemoteError(HapticdError):
