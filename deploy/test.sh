@@ -11,6 +11,8 @@ bash deploy/install.sh
 bash deploy/build.sh normal
 bash deploy/build.sh sanitize
 
+# Embree picks its kernels by CPU at run time: say which, so a CPU change shows in the log.
+echo "== CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | xargs); Embree: $(build/bin/hapticd-query --embree-info)"
 echo "== unit tests"
 ctest --test-dir build --output-on-failure -j 2 --timeout 300
 echo "== unit tests under ASan+UBSan"

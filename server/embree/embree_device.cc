@@ -1,5 +1,9 @@
 #include "server/embree/embree_device.h"
 
+#include <algorithm>
+#include <iostream>
+#include <memory>
+#include <sstream>
 #include <stdexcept>
 
 namespace hapticd::embree {
@@ -40,6 +44,67 @@ EmbreeDevice::~EmbreeDevice() {
   // errors to this object any more
   rtcSetDeviceErrorFunction(device_, nullptr, nullptr);
   rtcReleaseDevice(device_);
+}
+
+std::vector<int> EmbreeDevice::native_packet_widths() const {
+  std::vector<int> widths;
+  const std::pair<int, RTCDeviceProperty> properties[] = {
+      {4, RTC_DEVICE_PROPERTY_NATIVE_RAY4_SUPPORTED},
+      {8, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED},
+      {16, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED}};
+  for (const auto& [width, property] : properties) {
+    if (rtcGetDeviceProperty(device_, property) != 0) widths.push_back(width);
+  }
+  return widths;
+}
+
+namespace {
+
+// The words of a report line "  Targets : SSE SSE2 ... AVX512  (supported)" after its
+// colon, up to the parenthesis.
+std::vector<std::string> WordsAfterColon(const std::string& line) {
+  std::istringstream words(line.substr(line.find(':') + 1, line.find('(') - line.find(':') - 1));
+  std::vector<std::string> out;
+  for (std::string word; words >> word;) out.push_back(word);
+  return out;
+}
+
+}  // namespace
+
+EmbreeIsaReport ReportEmbreeIsa(const std::string& config) {
+  std::ostringstream captured;
+  std::streambuf* const saved = std::cout.rdbuf(captured.rdbuf());
+  std::unique_ptr<EmbreeDevice> device;
+  try {
+    device = std::make_unique<EmbreeDevice>(config.empty() ? "verbose=1" : config + ",verbose=1");
+  } catch (...) {
+    std::cout.rdbuf(saved);
+    throw;
+  }
+  std::cout.rdbuf(saved);
+
+  // The report's Config section lists the targets this CPU (under the config) supports,
+  // then those compiled in; Embree runs the widest target in both.
+  EmbreeIsaReport report;
+  report.version = std::to_string(rtcGetDeviceProperty(device->handle(), RTC_DEVICE_PROPERTY_VERSION_MAJOR)) +
+                   "." + std::to_string(rtcGetDeviceProperty(device->handle(), RTC_DEVICE_PROPERTY_VERSION_MINOR)) +
+                   "." + std::to_string(rtcGetDeviceProperty(device->handle(), RTC_DEVICE_PROPERTY_VERSION_PATCH));
+  report.native_packet_widths = device->native_packet_widths();
+  std::vector<std::string> supported;
+  std::istringstream lines(captured.str());
+  for (std::string line; std::getline(lines, line);) {
+    if (line.find("(supported)") != std::string::npos) supported = WordsAfterColon(line);
+    if (line.find("(compile time enabled)") != std::string::npos) {
+      std::istringstream words(line.substr(0, line.find('(')));
+      for (std::string word; words >> word;) report.compiled.push_back(word);
+    }
+  }
+  for (const std::string& target : report.compiled) {
+    if (std::find(supported.begin(), supported.end(), target) != supported.end()) report.kernels = target;
+  }
+  // a report Embree changed the shape of: say so rather than guess
+  if (report.kernels.empty()) report.kernels = "unknown (Embree's report did not name it)";
+  return report;
 }
 
 void EmbreeDevice::OnError(void* user, RTCError code, const char* message) {

@@ -13,6 +13,7 @@
 #include <mutex>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace hapticd::embree {
 
@@ -39,6 +40,10 @@ class EmbreeDevice {
   // The Embree handle, for building scenes; valid while this object lives.
   RTCDevice handle() const { return device_; }
 
+  // The packet widths (4, 8, 16) this device traces natively on this CPU, narrowest
+  // first; the wider ones are emulated. They follow the kernels Embree picked.
+  std::vector<int> native_packet_widths() const;
+
   // The last error the callback recorded (code RTC_ERROR_NONE if none since the last
   // TakeError), and clears it. Thread-safe.
   DeviceError TakeError() const;
@@ -57,5 +62,21 @@ class EmbreeDevice {
   mutable DeviceError last_error_;
   int error_count_ = 0;
 };
+
+// What Embree runs on this CPU, for logs, so that a change of CPU shows: its version,
+// the kernel ISA it picks for a device made with `config` (for example "AVX512", or
+// "AVX2" under "max_isa=avx2"), the ISAs it has kernels for, and the native packet widths.
+struct EmbreeIsaReport {
+  std::string version;
+  std::string kernels;
+  std::vector<std::string> compiled;
+  std::vector<int> native_packet_widths;
+};
+
+// Embree names its choice only in its verbose start-up report on std::cout; this makes a
+// device with "verbose=1" while std::cout is redirected, and reads the report. Not
+// thread-safe (it swaps std::cout's buffer): call it at start-up. Throws
+// std::runtime_error, as EmbreeDevice does, when the device cannot be made.
+EmbreeIsaReport ReportEmbreeIsa(const std::string& config = "");
 
 }  // namespace hapticd::embree

@@ -13,31 +13,39 @@ using internal::SegmentQuery;
 using internal::SegmentQueryContext;
 using internal::SetRay;
 
+// A packet's valid mask: Embree reads it with aligned vector loads, so it must be
+// aligned like the packet itself (16, 32 or 64 bytes); a plain int[W] faults in the 8-
+// and 16-wide kernels that Embree picks on AVX and AVX-512 machines.
+template <int W>
+struct alignas(sizeof(int) * W) ValidMask {
+  int lanes[W] = {};
+};
+
 // Packet types and entry points by width.
 template <int W>
 struct Packet;
 template <>
 struct Packet<4> {
   using RayHit = RTCRayHit4;
-  static void Intersect(const int* valid, RTCScene scene, RTCIntersectContext* context,
+  static void Intersect(const ValidMask<4>& valid, RTCScene scene, RTCIntersectContext* context,
                         RayHit* rays) {
-    rtcIntersect4(valid, scene, context, rays);
+    rtcIntersect4(valid.lanes, scene, context, rays);
   }
 };
 template <>
 struct Packet<8> {
   using RayHit = RTCRayHit8;
-  static void Intersect(const int* valid, RTCScene scene, RTCIntersectContext* context,
+  static void Intersect(const ValidMask<8>& valid, RTCScene scene, RTCIntersectContext* context,
                         RayHit* rays) {
-    rtcIntersect8(valid, scene, context, rays);
+    rtcIntersect8(valid.lanes, scene, context, rays);
   }
 };
 template <>
 struct Packet<16> {
   using RayHit = RTCRayHit16;
-  static void Intersect(const int* valid, RTCScene scene, RTCIntersectContext* context,
+  static void Intersect(const ValidMask<16>& valid, RTCScene scene, RTCIntersectContext* context,
                         RayHit* rays) {
-    rtcIntersect16(valid, scene, context, rays);
+    rtcIntersect16(valid.lanes, scene, context, rays);
   }
 };
 
@@ -50,9 +58,11 @@ bool IsBadSegment(const Vector3& p, const Vector3& q) {
 template <int W>
 void TraceChunk(const EmbreeMesh& mesh, std::span<const Vector3> p, std::span<const Vector3> q,
                 std::span<SegmentMeshHit> out, size_t first, int count) {
+  static_assert(alignof(ValidMask<W>) == alignof(typename Packet<W>::RayHit),
+                "Embree wants the valid mask aligned like the packet");
   SegmentQuery queries[W];
-  int valid[W] = {};
-  alignas(64) typename Packet<W>::RayHit rays{};
+  ValidMask<W> valid;
+  typename Packet<W>::RayHit rays{};
   bool any = false;
   for (int i = 0; i < count; ++i) {
     const Vector3& a = p[first + i];
@@ -70,7 +80,7 @@ void TraceChunk(const EmbreeMesh& mesh, std::span<const Vector3> p, std::span<co
     queries[i].q = b;
     SetRay(rays.ray, [i](auto& field) -> auto& { return field[i]; }, a, b, static_cast<unsigned>(i));
     rays.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
-    valid[i] = -1;
+    valid.lanes[i] = -1;
     any = true;
   }
   if (!any) return;
@@ -81,7 +91,7 @@ void TraceChunk(const EmbreeMesh& mesh, std::span<const Vector3> p, std::span<co
   context.queries = queries;
   Packet<W>::Intersect(valid, mesh.scene(), &context.embree, &rays);
   for (int i = 0; i < count; ++i) {
-    if (valid[i] != 0) out[first + i] = queries[i].hit;
+    if (valid.lanes[i] != 0) out[first + i] = queries[i].hit;
   }
 }
 

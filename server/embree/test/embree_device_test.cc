@@ -2,9 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <iostream>
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "server/embree/embree_mesh.h"
 #include "server/embree/embree_triangle_scene.h"
@@ -19,6 +22,30 @@ TEST(EmbreeDeviceTest, StartsWithoutErrors) {
   EXPECT_EQ(device.error_count(), 0);
   EXPECT_EQ(device.TakeError().code, RTC_ERROR_NONE);
   EXPECT_NO_THROW(device.ThrowIfError("nothing"));
+}
+
+// The report names the kernels Embree picks: capped at SSE2 (every x86-64 has it) it is
+// SSE2 with 4-wide packets only; uncapped it is one of the compiled targets, and the
+// native widths follow it (16 only with AVX-512 kernels, 8 with AVX ones).
+TEST(EmbreeDeviceTest, ReportNamesTheKernelsEmbreePicks) {
+  const EmbreeIsaReport capped = ReportEmbreeIsa("max_isa=sse2");
+  EXPECT_EQ(capped.kernels, "SSE2");
+  EXPECT_EQ(capped.native_packet_widths, std::vector<int>({4}));
+  EXPECT_EQ(capped.version.substr(0, 2), "3.");
+
+  const EmbreeIsaReport best = ReportEmbreeIsa();
+  ASSERT_FALSE(best.compiled.empty());
+  EXPECT_NE(std::find(best.compiled.begin(), best.compiled.end(), best.kernels), best.compiled.end())
+      << best.kernels;
+  const auto& widths = best.native_packet_widths;
+  const bool has16 = std::find(widths.begin(), widths.end(), 16) != widths.end();
+  const bool has8 = std::find(widths.begin(), widths.end(), 8) != widths.end();
+  EXPECT_EQ(has16, best.kernels == "AVX512") << best.kernels;
+  EXPECT_EQ(has8, best.kernels.starts_with("AVX")) << best.kernels;
+  // a device made the ordinary way traces the same widths
+  EXPECT_EQ(EmbreeDevice().native_packet_widths(), widths);
+  // the capture put std::cout back
+  EXPECT_NE(std::cout.rdbuf(), nullptr);
 }
 
 TEST(EmbreeDeviceTest, MalformedConfigThrowsWithTheConfig) {

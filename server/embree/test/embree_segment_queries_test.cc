@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <iostream>
+#include <string>
+
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
@@ -154,10 +157,12 @@ TEST_F(EmbreeSegmentQueriesTest, BadAndFarInput) {
 }
 
 // Packets of every width, with bad and far lanes mixed in, give the single answers.
-TEST_F(EmbreeSegmentQueriesTest, PacketsEqualSingleQueries) {
+// Packets of every width and fill, with bad lanes among them, answer as single queries
+// do, on the device's kernels.
+void ExpectPacketsEqualSingleQueries(const std::shared_ptr<const EmbreeDevice>& device) {
   auto torus = Share(geometry::MakeTorus(1.0, 0.35, 36, 18));
   auto bvh = std::make_shared<const geometry::MeshBvh>(torus);
-  const EmbreeMesh mesh(device_, bvh);
+  const EmbreeMesh mesh(device, bvh);
   std::mt19937_64 rng(14);
   const auto segments = RandomSegments(*torus, 300, rng);
   std::vector<Vector3> p, q;
@@ -183,6 +188,26 @@ TEST_F(EmbreeSegmentQueriesTest, PacketsEqualSingleQueries) {
   std::vector<SegmentMeshHit> out(10, SegmentMeshHit{true, 0.5, 7, 0, 0});
   FindFirstSegmentHits(mesh, std::span(p).first(4), std::span(q).first(10), out);
   EXPECT_TRUE(out[4].hit && out[4].t == 0.5 && out[4].triangle == 7);
+}
+
+TEST_F(EmbreeSegmentQueriesTest, PacketsEqualSingleQueries) { ExpectPacketsEqualSingleQueries(device_); }
+
+// Embree picks its kernels by CPU at run time, and the wide ones load the packet and its
+// valid mask with aligned instructions: every kernel this CPU can run answers packets
+// alike. Each max_isa caps the choice; the ones above this CPU's best repeat it.
+TEST_F(EmbreeSegmentQueriesTest, PacketsEqualSingleQueriesOnEveryKernelOfThisCpu) {
+  std::vector<std::string> kernels;
+  for (const std::string isa : {"sse2", "sse4.2", "avx", "avx2", "avx512"}) {
+    const std::string config = "max_isa=" + isa;
+    SCOPED_TRACE(config);
+    kernels.push_back(ReportEmbreeIsa(config).kernels);
+    ExpectPacketsEqualSingleQueries(std::make_shared<const EmbreeDevice>(config));
+  }
+  // the cap was obeyed: the narrowest is SSE2 on any x86-64
+  EXPECT_EQ(kernels.front(), "SSE2");
+  std::cout << "kernels exercised:";
+  for (const std::string& kernel : kernels) std::cout << ' ' << kernel;
+  std::cout << '\n';
 }
 
 // Concurrent queries on one mesh give the answers of a single thread.
