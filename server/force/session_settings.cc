@@ -24,6 +24,21 @@ std::optional<std::string> CheckPositive(std::string_view field, double value) {
   return Complaint(field, value, "it must be a finite number > 0");
 }
 
+// A finite value in [low, high] ("it must be in [10, 10000]").
+std::optional<std::string> CheckRange(std::string_view field, double value, double low, double high) {
+  if (value >= low && value <= high) return std::nullopt;
+  return Complaint(field, value, "it must be in [" + FormatNumber(low) + ", " + FormatNumber(high) + "]");
+}
+
+// A finite value in (0, high].
+std::optional<std::string> CheckPositiveAtMost(std::string_view field, double value, double high) {
+  if (auto error = CheckPositive(field, value)) return error;
+  if (value <= high) return std::nullopt;
+  return Complaint(field, value, "it must be at most " + FormatNumber(high));
+}
+
+using L = SessionLimits;
+
 // An enum whose value is outside its enumerators, spelled as its integer.
 std::string UnknownEnum(std::string_view field, int value, std::string_view known) {
   return std::string(field) + " is " + std::to_string(value) + ", which is not " +
@@ -42,6 +57,9 @@ std::optional<std::string> ValidateAvatar(const AvatarSettings& avatar) {
     return Complaint("avatar.radius", avatar.radius, "a sphere avatar needs a finite radius");
   if (avatar.type == AvatarType::kSphere && !(avatar.radius > 0))
     return Complaint("avatar.radius", avatar.radius, "a sphere avatar needs a radius > 0");
+  if (avatar.type == AvatarType::kSphere && avatar.radius > L::kMaxAvatarRadius)
+    return Complaint("avatar.radius", avatar.radius,
+                     "a sphere avatar's radius must be at most " + FormatNumber(L::kMaxAvatarRadius) + " m");
 
   // the method must exist and suit the avatar; penalty suits both
   switch (avatar.method) {
@@ -62,28 +80,28 @@ std::optional<std::string> ValidateDevice(const DeviceSettings& device) {
   if (DeviceModeName(device.mode).empty())
     return UnknownEnum("device.mode", static_cast<int>(device.mode),
                        "impedance or admittance");
-  if (auto error = CheckPositive("device.max_force", device.max_force)) return error;
+  if (auto error = CheckPositiveAtMost("device.max_force", device.max_force, L::kMaxForce)) return error;
   // an infinite rate means no rate limit
   if (!(device.max_force_rate > 0))
     return Complaint("device.max_force_rate", device.max_force_rate,
                      "it must be a number > 0 (inf: no limit)");
-  if (auto error = CheckPositive("device.max_velocity", device.max_velocity)) return error;
-  return CheckPositive("device.rate_hz", device.rate_hz);
+  if (auto error = CheckPositiveAtMost("device.max_velocity", device.max_velocity, L::kMaxVelocity))
+    return error;
+  return CheckRange("device.rate_hz", device.rate_hz, L::kMinRateHz, L::kMaxRateHz);
 }
 
 std::optional<std::string> ValidateAdmittance(const AdmittanceSettings& admittance) {
-  if (auto error = CheckPositive("admittance.virtual_mass", admittance.virtual_mass))
+  if (auto error = CheckRange("admittance.virtual_mass", admittance.virtual_mass, L::kMinVirtualMass,
+                              L::kMaxVirtualMass))
     return error;
-  if (std::isfinite(admittance.virtual_damping) && admittance.virtual_damping >= 0)
-    return std::nullopt;
-  return Complaint("admittance.virtual_damping", admittance.virtual_damping,
-                   "it must be a finite number >= 0");
+  return CheckRange("admittance.virtual_damping", admittance.virtual_damping, 0, L::kMaxVirtualDamping);
 }
 
 std::optional<std::string> ValidateControl(const ControlSettings& control) {
-  if (auto error = CheckPositive("control.watchdog_timeout_s", control.watchdog_timeout_s))
+  if (auto error = CheckPositiveAtMost("control.watchdog_timeout_s", control.watchdog_timeout_s,
+                                       L::kMaxWatchdogS))
     return error;
-  return CheckPositive("control.watchdog_ramp_s", control.watchdog_ramp_s);
+  return CheckPositiveAtMost("control.watchdog_ramp_s", control.watchdog_ramp_s, L::kMaxWatchdogS);
 }
 
 }  // namespace

@@ -36,7 +36,7 @@ struct DeviceSettings {
   // m/s, > 0: admittance avatars are limited to this speed; impedance input faster than
   // 10x this is counted as absurd.
   double max_velocity = 2.0;
-  double rate_hz = 1000;  // > 0
+  double rate_hz = 1000;  // in [SessionLimits::kMinRateHz, kMaxRateHz]
 };
 
 // Admittance mode: the avatar is a virtual mass-damper driven by the sensed force.
@@ -58,6 +58,22 @@ struct SessionSettings {
   DeviceSettings device;
   AdmittanceSettings admittance;
   ControlSettings control;
+};
+
+// The range of every setting a client or a scenario controls, checked by
+// ValidateSessionSettings: wide enough for every device hapticd serves (desktop devices
+// at 1-10 kHz, a UR arm at 125-500 Hz), narrow enough that every value that passes
+// keeps a tick's arithmetic finite and meaningful.
+struct SessionLimits {
+  static constexpr double kMinRateHz = 10;  // the period is the integration step's bound
+  static constexpr double kMaxRateHz = 10'000;
+  static constexpr double kMaxAvatarRadius = 1;         // m
+  static constexpr double kMaxForce = 10'000;           // N (max_force)
+  static constexpr double kMaxVelocity = 100;           // m/s (max_velocity)
+  static constexpr double kMinVirtualMass = 1e-3;       // kg
+  static constexpr double kMaxVirtualMass = 1e3;        // kg
+  static constexpr double kMaxVirtualDamping = 1e5;     // N·s/m
+  static constexpr double kMaxWatchdogS = 10;           // s (timeout and ramp each)
 };
 
 // Nullopt when usable; else a message naming the first bad field ("avatar.radius is 0;

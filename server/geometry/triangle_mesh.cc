@@ -5,6 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include "server/geometry/exact_predicates.h"
@@ -109,12 +110,53 @@ void TriangleMesh::ComputeFaceData() {
       continue;
     }
     nondegenerate_.push_back(t);
+  }
+  DropRepeatedTriangles();
+  for (int t : nondegenerate_) {
+    const Triangle tri = triangle(t);
     face_normals_[t] = NormalizedOrZero((tri.v1 - tri.v0).cross(tri.v2 - tri.v0));
     signed_volume_ += tri.v0.dot(tri.v1.cross(tri.v2));
     bounds_.Extend(Aabb::OfTriangle(tri));
   }
   // the sum above is six times the volume; divided once
   signed_volume_ /= 6;
+}
+
+// Repeats are found by sorting: each triangle's corners ordered by position, then the
+// triangles by those corners and index, so that a repeat follows the first of its kind.
+// Positions, not indices, decide: two vertices at one point are one corner.
+void TriangleMesh::DropRepeatedTriangles() {
+  const auto less = [this](int a, int b) {
+    const Vector3& p = vertices_[a];
+    const Vector3& q = vertices_[b];
+    return std::tie(p.x(), p.y(), p.z()) < std::tie(q.x(), q.y(), q.z());
+  };
+  std::vector<TriangleIndices> corners(nondegenerate_.size());
+  for (size_t i = 0; i < nondegenerate_.size(); ++i) {
+    corners[i] = triangles_[nondegenerate_[i]];
+    std::sort(corners[i].begin(), corners[i].end(), less);
+  }
+  const auto same = [this](const TriangleIndices& a, const TriangleIndices& b) {
+    return vertices_[a[0]] == vertices_[b[0]] && vertices_[a[1]] == vertices_[b[1]] &&
+           vertices_[a[2]] == vertices_[b[2]];
+  };
+  std::vector<int> order(nondegenerate_.size());
+  for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    for (int k = 0; k < 3; ++k) {
+      if (less(corners[a][k], corners[b][k])) return true;
+      if (less(corners[b][k], corners[a][k])) return false;
+    }
+    return a < b;
+  });
+  // a repeat of the triangle before it in that order: dropped like a zero-area one
+  for (size_t i = 1; i < order.size(); ++i) {
+    if (!same(corners[order[i]], corners[order[i - 1]])) continue;
+    degenerate_[nondegenerate_[order[i]]] = 1;
+    ++num_repeated_;
+  }
+  if (num_repeated_ == 0) return;
+  std::erase_if(nondegenerate_, [this](int t) { return degenerate_[t] != 0; });
 }
 
 // Edges are matched by vertex index. Each directed edge a->b of a non-degenerate

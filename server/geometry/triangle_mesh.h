@@ -7,8 +7,10 @@
 //
 // Creation is the validation boundary: bad input throws std::invalid_argument with a
 // message that names the bad value; nothing after creation throws. Triangles of
-// exactly zero area (IsDegenerateTriangle) are kept in triangles() so indices stay the
-// caller's, but they are marked degenerate and no query ever reports them.
+// exactly zero area (IsDegenerateTriangle), and exact repeats of an earlier triangle
+// (the same three corner positions in any order or winding: a coincident copy adds
+// nothing to hit but work), are kept in triangles() so indices stay the caller's, but
+// they are marked degenerate and no query ever reports them.
 
 #include <array>
 #include <vector>
@@ -36,12 +38,14 @@ class TriangleMesh {
   int num_vertices() const { return static_cast<int>(vertices_.size()); }
   int num_triangles() const { return static_cast<int>(triangles_.size()); }
 
-  // Original indices of the triangles with non-zero area, ascending: what the BVH and
-  // every query work on.
+  // Original indices of the triangles with non-zero area that repeat no earlier one,
+  // ascending: what the BVH and every query work on.
   const std::vector<int>& nondegenerate_triangles() const { return nondegenerate_; }
+  // Triangles dropped: zero-area ones and repeats together, and the repeats alone.
   int num_degenerate_triangles() const {
     return num_triangles() - static_cast<int>(nondegenerate_.size());
   }
+  int num_repeated_triangles() const { return num_repeated_; }
   bool is_degenerate(int t) const { return degenerate_[t] != 0; }
 
   // Corners of original triangle t, in the order that defines its normal.
@@ -79,6 +83,7 @@ class TriangleMesh {
  private:
   void Validate() const;
   void ComputeFaceData();
+  void DropRepeatedTriangles();
   void ComputeEdgeData();
   void ComputeVertexNormals();
 
@@ -86,6 +91,7 @@ class TriangleMesh {
   std::vector<TriangleIndices> triangles_;
   std::vector<char> degenerate_;
   std::vector<int> nondegenerate_;
+  int num_repeated_ = 0;
   Aabb bounds_;
   bool closed_ = false;
   double signed_volume_ = 0;

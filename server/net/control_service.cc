@@ -19,6 +19,8 @@ namespace {
 using geometry::Vector3;
 
 constexpr uint32_t kProtocolVersion = 1;
+// Telemetry rates: a sample at least every 10 s, at most one a millisecond.
+constexpr double kMinTelemetryRateHz = 0.1;
 constexpr double kMaxTelemetryRateHz = 1000;
 // How long an ended session stays in telemetry after it was reclaimed.
 constexpr int64_t kEndedVisibleNs = 2'000'000'000;
@@ -244,6 +246,7 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open) {
   slot.peer_size = 0;
   slot.opened_ns = MonotonicNowNs();
   slot.last_state_ns = slot.opened_ns;
+  slot.last_send_ns = 0;
   slot.next_silent_tick_ns = slot.opened_ns;
   slot.last_input = force::DeviceInput{};
   slot.last_input.p_WD = start_W;
@@ -366,10 +369,8 @@ v1::Reply ControlService::FindContacts(const v1::FindContacts& query) {
 }
 
 v1::Reply ControlService::Subscribe(uint64_t id, const v1::Subscribe& subscribe, ConnectionState& connection) {
-  const double rate_hz = subscribe.rate_hz();
-  if (!(std::isfinite(rate_hz) && rate_hz > 0 && rate_hz <= kMaxTelemetryRateHz)) {
-    throw BadRequest(fmt::format("subscribe.rate_hz is {}; it must be in (0, {}]", rate_hz, kMaxTelemetryRateHz));
-  }
+  const double rate_hz =
+      RequireInRange(subscribe.rate_hz(), kMinTelemetryRateHz, kMaxTelemetryRateHz, "subscribe.rate_hz");
   if (connection.subscriptions.count(id)) {
     throw RequestError(v1::Error::CODE_ALREADY_EXISTS,
                        fmt::format("request_id {} already names a subscription on this connection", id));

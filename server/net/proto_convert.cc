@@ -16,7 +16,6 @@ using geometry::Vector3;
 // Longest a session may stay silent before it is reclaimed, and the default.
 constexpr double kMaxTimeoutS = 3600;
 constexpr double kDefaultTimeoutS = 2;
-constexpr double kMaxRateHz = 10'000;
 
 std::vector<Vector3> ReadPoints(const google::protobuf::RepeatedField<double>& flat,
                                 const std::string& field) {
@@ -87,6 +86,16 @@ scene::ShapeSpec ReadShape(const v1::Shape& shape, const std::string& field) {
 double RequirePositive(double value, const std::string& field) {
   if (!(std::isfinite(value) && value > 0)) {
     throw BadRequest(fmt::format("{} is {}; it must be a finite number > 0", field, value));
+  }
+  return value;
+}
+
+double RequireInRange(double value, double low, double high, const std::string& field) {
+  // low 0 means "> 0": a limit of zero renders nothing
+  const bool above = low == 0 ? value > 0 : value >= low;
+  if (!(above && value <= high)) {
+    throw BadRequest(fmt::format("{} is {}; it must be in {}{}, {}]", field, value, low == 0 ? "(" : "[",
+                                 low, high));
   }
   return value;
 }
@@ -170,12 +179,10 @@ force::SessionSettings ReadSessionRequest(const v1::OpenSession& open, Vector3& 
     throw BadRequest(fmt::format("{}.degrees_of_freedom is {}; hapticd renders 3 or 6", field,
                                  open.degrees_of_freedom()));
   }
-  settings.device.max_force = RequirePositive(open.max_force(), field + ".max_force");
-  settings.device.max_velocity = RequirePositive(open.max_velocity(), field + ".max_velocity");
-  settings.device.rate_hz = RequirePositive(open.rate_hz(), field + ".rate_hz");
-  if (settings.device.rate_hz > kMaxRateHz) {
-    throw BadRequest(fmt::format("{}.rate_hz is {}; at most {} is served", field, open.rate_hz(), kMaxRateHz));
-  }
+  using L = force::SessionLimits;
+  settings.device.max_force = RequireInRange(open.max_force(), 0, L::kMaxForce, field + ".max_force");
+  settings.device.max_velocity = RequireInRange(open.max_velocity(), 0, L::kMaxVelocity, field + ".max_velocity");
+  settings.device.rate_hz = RequireInRange(open.rate_hz(), L::kMinRateHz, L::kMaxRateHz, field + ".rate_hz");
   settings.device.max_force_rate = open.max_force_rate() == 0
                                        ? std::numeric_limits<double>::infinity()
                                        : RequirePositive(open.max_force_rate(), field + ".max_force_rate");
@@ -245,7 +252,10 @@ void WriteObjectInfo(const scene::SceneObject& object, v1::ObjectInfo* out) {
   WriteMaterial(object.material, out->mutable_material());
   out->set_kinematic(object.motion == scene::Motion::kKinematic);
   if (const auto* mesh = std::get_if<scene::MeshShape>(&object.shape)) {
-    out->set_triangles(static_cast<uint32_t>(mesh->bvh->mesh().num_triangles()));
+    const geometry::TriangleMesh& triangles = mesh->bvh->mesh();
+    out->set_triangles(static_cast<uint32_t>(triangles.num_triangles()));
+    out->set_dropped_triangles(static_cast<uint32_t>(triangles.num_degenerate_triangles()));
+    out->set_repeated_triangles(static_cast<uint32_t>(triangles.num_repeated_triangles()));
     out->set_ray_backend(std::string(
         scene::RayBackendName(mesh->embree ? scene::RayBackend::kEmbree : scene::RayBackend::kNative)));
   }

@@ -14,6 +14,9 @@ namespace hapticd::net {
 
 // value itself when it is finite and > 0; else RequestError naming field and value.
 double RequirePositive(double value, const std::string& field);
+// value itself when it is in [low, high] (in (0, high] when low is 0); else
+// RequestError naming field, value and the range.
+double RequireInRange(double value, double low, double high, const std::string& field);
 geometry::Vector3 ReadVector(const v1::Vec3& v, const std::string& field);
 scene::Pose ReadPose(const v1::Pose& pose, bool present, const std::string& field);
 scene::Material ReadMaterial(const v1::Material& material, const std::string& field);

@@ -6,7 +6,9 @@
 #include <sys/socket.h>
 #include <time.h>
 
+#include <algorithm>
 #include <array>
+#include <cstdint>
 #include <cstring>
 #include <system_error>
 
@@ -21,6 +23,20 @@ constexpr int64_t kTickNs = 1'000'000;  // silent sessions are looked at every m
 constexpr int kSocketBufferBytes = 4 << 20;
 
 double NsToSeconds(int64_t ns) { return static_cast<double>(ns) * 1e-9; }
+
+// The step a fresh state integrates over: the time since the device's previous state,
+// by its own send stamps (what it sampled), else by arrival; bounded to [1/2, 2] periods,
+// so that a burst, a stall or a forged stamp moves an admittance avatar no further than
+// the device could in two periods at its speed limit.
+double StepSeconds(const SessionSlot& slot, int64_t send_ns, int64_t now_ns) {
+  int64_t interval_ns = slot.period_ns;
+  if (slot.last_send_ns > 0 && send_ns > slot.last_send_ns) {
+    interval_ns = send_ns - slot.last_send_ns;
+  } else if (slot.last_send_ns == 0 && slot.telemetry.states_received > 0) {
+    interval_ns = now_ns - slot.last_state_ns;
+  }
+  return NsToSeconds(std::clamp(interval_ns, slot.period_ns / 2, 2 * slot.period_ns));
+}
 
 }  // namespace
 
@@ -181,9 +197,12 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
   }
 
   // A fresh, authentic state: it names where the device is now.
+  const auto send_ns = static_cast<int64_t>(std::min<uint64_t>(state.send_time_ns, INT64_MAX));
+  const double dt = StepSeconds(slot, send_ns, now_ns);
   std::memcpy(&slot.peer, &b.in_peer[index], message.msg_hdr.msg_namelen);
   slot.peer_size = message.msg_hdr.msg_namelen;
   slot.last_state_ns = now_ns;
+  slot.last_send_ns = send_ns;
   slot.next_silent_tick_ns = now_ns + slot.period_ns + slot.period_ns / 2;
   slot.ramp_done = false;
   slot.state.store(SlotState::kActive, std::memory_order_release);
@@ -195,7 +214,7 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
   input.f_held_W = state.f_held_W;
   input.f_sensed_W = state.f_sensed_W;
   const int64_t tick_start_ns = MonotonicNowNs();
-  const force::TickOutput output = slot.render->Tick(scene, input, NsToSeconds(slot.period_ns));
+  const force::TickOutput output = slot.render->Tick(scene, input, dt);
   const double tick_us = static_cast<double>(MonotonicNowNs() - tick_start_ns) * 1e-3;
 
   SessionTelemetrySample& telemetry = slot.telemetry;

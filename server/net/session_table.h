@@ -94,6 +94,7 @@ struct SessionSlot {
   socklen_t peer_size = 0;
   int64_t opened_ns = 0;
   int64_t last_state_ns = 0;
+  int64_t last_send_ns = 0;  // the device's send stamp of its last fresh state (its clock; 0: none)
   int64_t next_silent_tick_ns = 0;
   force::DeviceInput last_input;
   bool ramp_done = false;  // the watchdog's force reached zero; stop sending

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "server/scene/scene_limits.h"
 #include "server/scene/value_text.h"
 
 namespace hapticd::scene {
@@ -17,20 +18,21 @@ std::string Complaint(std::string_view field, std::string_view name, double valu
 }  // namespace
 
 std::optional<std::string> ValidateMaterial(const Material& material, std::string_view field) {
+  using L = SceneLimits;
   // stiffness: a spring that pushes back
-  if (!(material.stiffness > 0) || !std::isfinite(material.stiffness)) {
-    return Complaint(field, "stiffness", material.stiffness, "a finite number > 0");
+  if (!(material.stiffness > 0) || !(material.stiffness <= L::kMaxStiffness)) {
+    return Complaint(field, "stiffness", material.stiffness, "in (0, " + FormatExact(L::kMaxStiffness) + "] N/m");
   }
   // damping: dissipative or none, never negative (that would inject energy)
-  if (!(material.damping >= 0) || !std::isfinite(material.damping)) {
-    return Complaint(field, "damping", material.damping, "a finite number >= 0");
+  if (!(material.damping >= 0) || !(material.damping <= L::kMaxDamping)) {
+    return Complaint(field, "damping", material.damping, "in [0, " + FormatExact(L::kMaxDamping) + "] N*s/m");
   }
-  if (!(material.static_friction >= 0) || !std::isfinite(material.static_friction)) {
-    return Complaint(field, "static_friction", material.static_friction, "a finite number >= 0");
+  const std::string friction_range = "in [0, " + FormatExact(L::kMaxFriction) + "]";
+  if (!(material.static_friction >= 0) || !(material.static_friction <= L::kMaxFriction)) {
+    return Complaint(field, "static_friction", material.static_friction, friction_range);
   }
-  if (!(material.dynamic_friction >= 0) || !std::isfinite(material.dynamic_friction)) {
-    return Complaint(field, "dynamic_friction", material.dynamic_friction,
-                     "a finite number >= 0");
+  if (!(material.dynamic_friction >= 0) || !(material.dynamic_friction <= L::kMaxFriction)) {
+    return Complaint(field, "dynamic_friction", material.dynamic_friction, friction_range);
   }
   // sliding never holds more than sticking
   if (material.dynamic_friction > material.static_friction) {

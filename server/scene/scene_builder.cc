@@ -20,6 +20,8 @@ constexpr double kRotationTolerance = 1e-6;
 
 std::string ObjectField(std::string_view name) { return "objects[" + std::string(name) + "]"; }
 
+using L = SceneLimits;
+
 // "<field> is <value>; it must be a finite number > 0" unless value is one.
 void RequirePositive(double value, const std::string& field) {
   if (!(value > 0) || !std::isfinite(value)) {
@@ -27,14 +29,41 @@ void RequirePositive(double value, const std::string& field) {
   }
 }
 
-void RequireNonNegative(double value, const std::string& field) {
-  if (!(value >= 0) || !std::isfinite(value)) {
-    throw SceneError(field + " is " + FormatExact(value) + "; it must be a finite number >= 0");
+// A size: in (0, SceneLimits::kMaxSize] (from 0 when zero is allowed).
+void RequireSize(double value, const std::string& field, bool zero_allowed = false) {
+  if (!(zero_allowed ? value >= 0 : value > 0) || !(value <= L::kMaxSize)) {
+    throw SceneError(field + " is " + FormatExact(value) + "; it must be in " + (zero_allowed ? "[" : "(") +
+                     "0, " + FormatExact(L::kMaxSize) + "] m");
   }
 }
 
 void RequireFinite(const Vector3& v, const std::string& field) {
   if (!v.allFinite()) throw SceneError(field + " is " + FormatExact(v) + "; it must be finite");
+}
+
+// Finite, and no farther than bound along any axis.
+void RequireWithin(const Vector3& v, double bound, const std::string& field, const char* unit) {
+  RequireFinite(v, field);
+  if (v.cwiseAbs().maxCoeff() > bound) {
+    throw SceneError(field + " is " + FormatExact(v) + "; each coordinate must be within +-" +
+                     FormatExact(bound) + " " + unit);
+  }
+}
+
+// A name: non-empty, within the budget's bytes, no control characters (names are
+// echoed in errors and logs).
+void ValidateName(const std::string& name, const SceneBudgets& budgets) {
+  if (name.empty()) throw SceneError("objects[] name is empty");
+  if (name.size() > budgets.max_name_bytes) {
+    throw SceneError("objects[" + name.substr(0, 32) + "...].name has " + std::to_string(name.size()) +
+                     " bytes; the budget is " + std::to_string(budgets.max_name_bytes) + " (max_name_bytes)");
+  }
+  for (const char c : name) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
+      throw SceneError("objects[] name has the control character " +
+                       std::to_string(static_cast<unsigned char>(c)) + "; names must be printable");
+    }
+  }
 }
 
 // A rigid pose: finite, orthonormal within kRotationTolerance, right-handed.
@@ -47,7 +76,7 @@ void ValidatePose(const Pose& X, const std::string& object) {
       }
     }
   }
-  RequireFinite(X.translation, object + ".translation");
+  RequireWithin(X.translation, L::kMaxCoordinate, object + ".translation", "m");
   const double deviation = (X.rotation.transpose() * X.rotation - Matrix3::Identity()).norm();
   if (deviation > kRotationTolerance) {
     throw SceneError(object + ".rotation is not a rotation (|R^T R - I| = " +
@@ -66,6 +95,14 @@ void ValidateVelocities(Motion motion, const Vector3& v_WB, const Vector3& w_WB,
                         const std::string& object) {
   RequireFinite(v_WB, object + ".v_WB");
   RequireFinite(w_WB, object + ".w_WB");
+  if (!(v_WB.norm() <= L::kMaxSpeed)) {
+    throw SceneError(object + ".v_WB is " + FormatExact(v_WB) + "; its speed must be at most " +
+                     FormatExact(L::kMaxSpeed) + " m/s");
+  }
+  if (!(w_WB.norm() <= L::kMaxAngularSpeed)) {
+    throw SceneError(object + ".w_WB is " + FormatExact(w_WB) + "; its rate must be at most " +
+                     FormatExact(L::kMaxAngularSpeed) + " rad/s");
+  }
   if (motion == Motion::kKinematic) return;
   for (const auto& [v, name] : {std::pair{&v_WB, ".v_WB"}, std::pair{&w_WB, ".w_WB"}}) {
     if (!v->isZero(0)) {
@@ -80,19 +117,17 @@ Pose Compose(const Pose& X_AB, const Pose& X_BC) {
   return {X_AB.rotation * X_BC.rotation, X_AB.ToWorld(X_BC.translation)};
 }
 
-// A convex shape: finite points of bounded size whose hull is a solid.
-ConvexShape MakeConvex(const ConvexSpec& spec, const std::string& field) {
+// A convex shape: within the budget, finite points of bounded size whose hull is a solid.
+ConvexShape MakeConvex(const ConvexSpec& spec, const std::string& field, const SceneBudgets& budgets) {
   if (spec.points.empty()) {
     throw SceneError(field + ".points is empty; a convex shape needs at least 4 points");
   }
+  if (spec.points.size() > budgets.max_points_per_convex) {
+    throw SceneError(field + ".points has " + std::to_string(spec.points.size()) + " points; the budget is " +
+                     std::to_string(budgets.max_points_per_convex) + " (max_points_per_convex)");
+  }
   for (size_t i = 0; i < spec.points.size(); ++i) {
-    const Vector3& p = spec.points[i];
-    const std::string point = field + ".points[" + std::to_string(i) + "]";
-    RequireFinite(p, point);
-    if (p.cwiseAbs().maxCoeff() > geometry::kMaxHullCoordinate) {
-      throw SceneError(point + " is " + FormatExact(p) +
-                       "; its coordinates must be at most 1e100 in magnitude");
-    }
+    RequireWithin(spec.points[i], L::kMaxCoordinate, field + ".points[" + std::to_string(i) + "]", "m");
   }
   auto hull = std::make_shared<geometry::ConvexHull>(geometry::BuildConvexHull(spec.points));
   // flat or thinner: no inside to push a proxy out of
@@ -106,12 +141,25 @@ ConvexShape MakeConvex(const ConvexSpec& spec, const std::string& field) {
   return ConvexShape{std::move(hull)};
 }
 
-// A mesh: validated by TriangleMesh, then represented as cheaply as the tolerance allows.
-RepresentedMesh MakeMesh(const MeshSpec& spec, const std::string& field, double tolerance) {
+// A mesh: within the budget and the coordinate range, validated by TriangleMesh, then
+// represented as cheaply as the tolerance allows.
+RepresentedMesh MakeMesh(const MeshSpec& spec, const std::string& field, const SceneSettings& settings) {
   const int pin = static_cast<int>(spec.pin);
   if (pin < 0 || pin >= static_cast<int>(Representation::kCount)) {
     throw SceneError(field + ".pin is " + std::to_string(pin) +
                      "; it must be one of auto, sphere, box, capsule, convex, mesh");
+  }
+  // the budget first: a mesh over it is refused before any work is spent on it
+  if (spec.triangles.size() > settings.budgets.max_triangles_per_mesh) {
+    throw SceneError(field + " has " + std::to_string(spec.triangles.size()) + " triangles; the budget is " +
+                     std::to_string(settings.budgets.max_triangles_per_mesh) + " per mesh (max_triangles_per_mesh)");
+  }
+  // (non-finite ones are TriangleMesh's to name)
+  for (size_t i = 0; i < spec.vertices.size(); ++i) {
+    const Vector3& v = spec.vertices[i];
+    if (v.allFinite() && v.cwiseAbs().maxCoeff() > L::kMaxCoordinate) {
+      RequireWithin(v, L::kMaxCoordinate, field + ".vertices[" + std::to_string(i) + "]", "m");
+    }
   }
   std::shared_ptr<const geometry::TriangleMesh> mesh;
   try {
@@ -120,7 +168,7 @@ RepresentedMesh MakeMesh(const MeshSpec& spec, const std::string& field, double 
     throw SceneError(field + ": " + e.what());
   }
   try {
-    return ChooseMeshRepresentation(std::move(mesh), tolerance, spec.pin);
+    return ChooseMeshRepresentation(std::move(mesh), settings.tolerance, spec.pin);
   } catch (const std::invalid_argument& e) {
     throw SceneError(field + ".pin: " + e.what());
   }
@@ -128,28 +176,28 @@ RepresentedMesh MakeMesh(const MeshSpec& spec, const std::string& field, double 
 
 // The shape of spec (validated) and, for a mesh, how it is represented.
 std::pair<Shape, RepresentationChoice> MakeShape(const ShapeSpec& spec, const std::string& field,
-                                                 double tolerance) {
+                                                 const SceneSettings& settings) {
   return std::visit(
       [&](const auto& s) -> std::pair<Shape, RepresentationChoice> {
         using S = std::decay_t<decltype(s)>;
         if constexpr (std::is_same_v<S, SphereShape>) {
-          RequirePositive(s.radius, field + ".radius");
+          RequireSize(s.radius, field + ".radius");
           return {s, {}};
         } else if constexpr (std::is_same_v<S, BoxShape>) {
           for (int k = 0; k < 3; ++k) {
-            RequirePositive(s.half_extents[k], field + ".half_extents[" + std::to_string(k) + "]");
+            RequireSize(s.half_extents[k], field + ".half_extents[" + std::to_string(k) + "]");
           }
           return {s, {}};
         } else if constexpr (std::is_same_v<S, CapsuleShape>) {
-          RequirePositive(s.radius, field + ".radius");
-          RequireNonNegative(s.half_length, field + ".half_length");
+          RequireSize(s.radius, field + ".radius");
+          RequireSize(s.half_length, field + ".half_length", true);
           return {s, {}};
         } else if constexpr (std::is_same_v<S, PlaneShape>) {
           return {s, {}};
         } else if constexpr (std::is_same_v<S, ConvexSpec>) {
-          return {MakeConvex(s, field), {}};
+          return {MakeConvex(s, field, settings.budgets), {}};
         } else {
-          RepresentedMesh represented = MakeMesh(s, field, tolerance);
+          RepresentedMesh represented = MakeMesh(s, field, settings);
           return {std::move(represented.shape), std::move(represented.choice)};
         }
       },
@@ -168,7 +216,7 @@ void Place(SceneObject& object, const Pose& X_WB, const Vector3& v_WB, const Vec
 // A validated, fully built object: everything that can fail happens here, before the
 // builder changes.
 SceneObject MakeObject(const ObjectSpec& spec, const SceneSettings& settings) {
-  if (spec.name.empty()) throw SceneError("objects[] name is empty");
+  ValidateName(spec.name, settings.budgets);
   const std::string object = ObjectField(spec.name);
   ValidatePose(spec.X_WB, object);
   if (std::optional<std::string> problem = ValidateMaterial(spec.material, object + ".material")) {
@@ -183,11 +231,30 @@ SceneObject MakeObject(const ObjectSpec& spec, const SceneSettings& settings) {
   SceneObject out;
   out.name = spec.name;
   std::tie(out.shape, out.representation) =
-      MakeShape(spec.shape, object + ".shape", settings.tolerance);
+      MakeShape(spec.shape, object + ".shape", settings);
   out.material = spec.material;
   out.motion = spec.motion;
   Place(out, spec.X_WB, spec.v_WB, spec.w_WB);
   return out;
+}
+
+// Triangles an object keeps as a mesh (0 for every other representation).
+std::size_t KeptTriangles(const SceneObject& object) {
+  const auto* mesh = std::get_if<MeshShape>(&object.shape);
+  return mesh != nullptr && mesh->bvh ? static_cast<std::size_t>(mesh->bvh->mesh().num_triangles()) : 0;
+}
+
+// The scene's triangle budget, with `added` kept in place of `replaced` (or nothing).
+void RequireTriangleBudget(const std::vector<SceneObject>& objects, const SceneObject& added,
+                           const SceneObject* replaced, const SceneBudgets& budgets) {
+  std::size_t total = KeptTriangles(added);
+  for (const SceneObject& object : objects) {
+    if (&object != replaced) total += KeptTriangles(object);
+  }
+  if (total > budgets.max_triangles) {
+    throw SceneError(ObjectField(added.name) + " would bring the scene to " + std::to_string(total) +
+                     " triangles; the budget is " + std::to_string(budgets.max_triangles) + " (max_triangles)");
+  }
 }
 
 }  // namespace
@@ -204,7 +271,12 @@ const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
                   [&](const SceneObject& o) { return o.name == spec.name; })) {
     throw SceneError(ObjectField(spec.name) + " already exists");
   }
+  if (objects_.size() >= settings_.budgets.max_objects) {
+    throw SceneError("the scene has " + std::to_string(objects_.size()) + " objects; the budget is " +
+                     std::to_string(settings_.budgets.max_objects) + " (max_objects)");
+  }
   SceneObject object = MakeObject(spec, settings_);
+  RequireTriangleBudget(objects_, object, nullptr, settings_.budgets);
   AttachRayBackend(spec, object);
   objects_.push_back(std::move(object));
   return objects_.back();
@@ -213,6 +285,7 @@ const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
 const SceneObject& SceneBuilder::Update(const ObjectSpec& spec) {
   SceneObject& target = FindOrThrow(spec.name);
   SceneObject object = MakeObject(spec, settings_);
+  RequireTriangleBudget(objects_, object, &target, settings_.budgets);
   AttachRayBackend(spec, object);
   target = std::move(object);
   return target;

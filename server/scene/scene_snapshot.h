@@ -9,6 +9,7 @@
 #include <string_view>
 #include <vector>
 
+#include "server/scene/scene_limits.h"
 #include "server/scene/scene_object.h"
 
 namespace hapticd::scene {
@@ -18,6 +19,7 @@ struct SceneSettings {
   double tolerance = 1e-4;
   // The backend of the objects kept as meshes, unless an object names its own.
   RayBackend ray_backend = RayBackend::kNative;
+  SceneBudgets budgets;
 };
 
 class SceneSnapshot {

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <random>
 
 #include "server/force/render_session.h"
 #include "server/force/test/test_scenes.h"
@@ -126,7 +127,7 @@ TEST(BadInput, NonFiniteAndAbsurdSamplesAreCountedAndIgnored) {
 }
 
 TEST(BadInput, AbsurdForcesAreSaturatedToTheDeviceLimit) {
-  auto scene = BuildScene({MakeObject("floor", scene::PlaneShape{}, Vector3::Zero(), MakeMaterial(1e9))});
+  auto scene = BuildScene({MakeObject("floor", scene::PlaneShape{}, Vector3::Zero(), MakeMaterial(1e7))});
   RenderSession session(Impedance(ForceMethod::kGodObject));
   session.Reset(Vector3(0, 0, 0.01));
   DeviceInput input;
@@ -211,6 +212,105 @@ TEST(Watchdog, ForceRampsToZeroWhenSamplesStop) {
   EXPECT_EQ(session.counters().watchdog_trips, 1u);
   input.fresh = true;
   EXPECT_NEAR(session.Tick(*scene, input, 0.001).f_W.z(), 2.0, 1e-5);
+}
+
+}  // namespace
+}  // namespace hapticd::force
+
+namespace hapticd::force {
+namespace {
+
+// Every value that passes validation keeps the tick finite: sessions and scenes drawn
+// at and between the ends of their documented ranges (SessionLimits, SceneLimits), and
+// device input anywhere inside the workspace, give finite commands within the force
+// limit. Before the ranges, a sphere of radius 1e308 rendered 0 N deep inside it and a
+// sphere avatar of radius 1e308 got NaN coordinates.
+TEST(Limits, EveryValueThatPassesKeepsTheTickFinite) {
+  using SL = SessionLimits;
+  using GL = scene::SceneLimits;
+  std::mt19937_64 rng(41);
+  // a value at either end of [low, high] or log-uniform between
+  auto pick = [&](double low, double high) {
+    const int which = std::uniform_int_distribution<int>(0, 3)(rng);
+    if (which == 0) return low;
+    if (which == 1) return high;
+    return std::exp(std::uniform_real_distribution<double>(std::log(low), std::log(high))(rng));
+  };
+  auto signed_pick = [&](double low, double high) {
+    return (std::uniform_int_distribution<int>(0, 1)(rng) ? 1 : -1) * pick(low, high);
+  };
+  auto position = [&](double bound) {
+    return Vector3(signed_pick(1e-6, bound), signed_pick(1e-6, bound), signed_pick(1e-6, bound));
+  };
+  int contacts = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    // a scene of one big or small object somewhere within range
+    const scene::Material material = MakeMaterial(pick(1, GL::kMaxStiffness), pick(1e-3, GL::kMaxDamping),
+                                                  pick(1e-3, GL::kMaxFriction), 0);
+    scene::ShapeSpec shape;
+    switch (trial % 4) {
+      case 0: shape = scene::SphereShape{pick(1e-6, GL::kMaxSize)}; break;
+      case 1: shape = scene::BoxShape{Vector3(pick(1e-6, GL::kMaxSize), pick(1e-6, GL::kMaxSize),
+                                              pick(1e-6, GL::kMaxSize))}; break;
+      case 2: shape = scene::CapsuleShape{pick(1e-6, GL::kMaxSize), pick(1e-6, GL::kMaxSize)}; break;
+      default: shape = scene::PlaneShape{}; break;
+    }
+    const Vector3 centre = trial % 8 < 4 ? Vector3::Zero() : position(GL::kMaxCoordinate);
+    const auto scene = BuildScene({MakeObject("thing", shape, centre, material)});
+
+    // a session anywhere within its ranges
+    SessionSettings settings;
+    const bool sphere = std::uniform_int_distribution<int>(0, 1)(rng);
+    settings.avatar.type = sphere ? AvatarType::kSphere : AvatarType::kPoint;
+    settings.avatar.radius = sphere ? pick(1e-6, SL::kMaxAvatarRadius) : 0;
+    const int method = std::uniform_int_distribution<int>(0, 1)(rng);
+    settings.avatar.method = method == 0 ? ForceMethod::kPenalty
+                             : sphere    ? ForceMethod::kFingerProxy
+                                         : ForceMethod::kGodObject;
+    settings.device.mode = trial % 3 == 0 ? DeviceMode::kAdmittance : DeviceMode::kImpedance;
+    settings.device.max_force = pick(1e-3, SL::kMaxForce);
+    settings.device.max_velocity = pick(1e-3, SL::kMaxVelocity);
+    settings.device.rate_hz = pick(SL::kMinRateHz, SL::kMaxRateHz);
+    settings.admittance.virtual_mass = pick(SL::kMinVirtualMass, SL::kMaxVirtualMass);
+    settings.admittance.virtual_damping = pick(1e-3, SL::kMaxVirtualDamping);
+    settings.control.passivity = trial % 5 == 0;
+    ASSERT_FALSE(ValidateSessionSettings(settings).has_value()) << *ValidateSessionSettings(settings);
+
+    RenderSession session(settings);
+    session.Reset(position(50));
+    for (int tick = 0; tick < 20; ++tick) {
+      DeviceInput input;
+      // inside the workspace, and at times deep inside the object
+      input.p_WD = tick % 2 ? position(50) : centre.cwiseMin(50).cwiseMax(-50);
+      input.v_WD = position(settings.device.max_velocity) / std::sqrt(3.0);
+      input.f_sensed_W = position(settings.device.max_force) / std::sqrt(3.0);
+      const TickOutput out = session.Tick(*scene, input, 1 / settings.device.rate_hz);
+      SCOPED_TRACE(::testing::Message() << "trial " << trial << " tick " << tick);
+      ASSERT_TRUE(out.f_W.allFinite()) << out.f_W.transpose();
+      ASSERT_TRUE(out.p_command_W.allFinite()) << out.p_command_W.transpose();
+      ASSERT_TRUE(out.avatar_W.allFinite()) << out.avatar_W.transpose();
+      ASSERT_LE(out.f_W.norm(), settings.device.max_force * (1 + 1e-12));
+      contacts += out.contact ? 1 : 0;
+    }
+  }
+  // the draw reached inside objects often enough to mean something
+  EXPECT_GT(contacts, 1000);
+}
+
+// A huge sphere still pushes a device that is deep inside it out, along its radius.
+TEST(Limits, TheLargestSpherePushesOutFromDeepInside) {
+  const double r = scene::SceneLimits::kMaxSize;
+  const auto scene = BuildScene({MakeObject("ball", scene::SphereShape{r}, Vector3(0, 0, -r), MakeMaterial(1000))});
+  SessionSettings settings;
+  settings.avatar.method = ForceMethod::kPenalty;
+  settings.device.max_force = 100;
+  RenderSession session(settings);
+  session.Reset(Vector3(0, 0, 0.01));
+  DeviceInput input;
+  input.p_WD = Vector3(0, 0, -0.02);
+  const TickOutput out = session.Tick(*scene, input, 0.001);
+  EXPECT_NEAR(out.f_W.z(), 20, 1e-6);
+  EXPECT_NEAR(out.f_W.head<2>().norm(), 0, 1e-9);
 }
 
 }  // namespace

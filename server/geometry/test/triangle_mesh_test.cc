@@ -120,6 +120,41 @@ TEST(TriangleMesh, DropsDegenerateTrianglesAndKeepsOriginalIndices) {
 // ---------------------------------------------------------------------------------
 // Open and closed.
 
+// Repeats of an earlier triangle (the same three corner positions in any order or
+// winding, through any vertex indices) are dropped like zero-area ones and counted; the
+// first of each kind stays, so the mesh is the tetrahedron again.
+TEST(TriangleMesh, DropsRepeatedTrianglesKeepingTheFirst) {
+  auto vertices = kTetraVertices;
+  vertices.push_back(vertices[1]);  // vertex 4 sits where vertex 1 does
+  std::vector<Indices> triangles = kTetraTriangles;
+  triangles.push_back({2, 1, 0});  // 4: face 0 with its winding reversed
+  triangles.push_back({3, 0, 1});  // 5: face 1, corners rotated
+  triangles.push_back({0, 4, 3});  // 6: face 1 through the twin of vertex 1
+  triangles.push_back({1, 2, 3});  // 7: face 3 again, index for index
+  triangles.push_back({0, 0, 1});  // 8: zero area
+  const TriangleMesh mesh(vertices, triangles);
+  EXPECT_EQ(mesh.num_triangles(), 9);
+  EXPECT_EQ(mesh.num_repeated_triangles(), 4);
+  EXPECT_EQ(mesh.num_degenerate_triangles(), 5);
+  EXPECT_EQ(mesh.nondegenerate_triangles(), (std::vector<int>{0, 1, 2, 3}));
+  for (int t : {4, 5, 6, 7, 8}) EXPECT_TRUE(mesh.is_degenerate(t)) << t;
+  // without the repeats every edge is shared twice, oppositely: closed, volume 1/6
+  EXPECT_TRUE(mesh.is_closed());
+  EXPECT_NEAR(mesh.signed_volume(), 1.0 / 6, 1e-15);
+  EXPECT_EQ(mesh.face_normal(4), Vector3::Zero());
+}
+
+// Nearly equal is not equal: a triangle one ulp away from another is a triangle.
+TEST(TriangleMesh, KeepsTrianglesThatDifferByAnUlp) {
+  auto vertices = kTetraVertices;
+  vertices.push_back({std::nextafter(1.0, 2.0), 0, 0});
+  std::vector<Indices> triangles = kTetraTriangles;
+  triangles.push_back({0, 4, 3});
+  const TriangleMesh mesh(vertices, triangles);
+  EXPECT_EQ(mesh.num_repeated_triangles(), 0);
+  EXPECT_EQ(mesh.nondegenerate_triangles().size(), 5u);
+}
+
 TEST(TriangleMesh, TetrahedronIsClosedAndOutward) {
   const TriangleMesh mesh(kTetraVertices, kTetraTriangles);
   EXPECT_TRUE(mesh.is_closed());

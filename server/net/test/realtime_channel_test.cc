@@ -244,6 +244,41 @@ TEST_F(RealtimeChannelTest, AnAdmittanceAvatarPushedIntoTheBoxStopsOnItsSurface)
   EXPECT_EQ(last.f_W, Vector3::Zero());  // admittance commands carry a pose, not a force
 }
 
+// An admittance avatar integrates over the time between the device's states (its send
+// stamps), bounded to [1/2, 2] periods: a stamp a second late moves it no further than
+// two periods would. (It used to take the declared period whatever the real interval;
+// and a rate of 1e-3 Hz, now refused, was a 1000 s step.)
+TEST_F(RealtimeChannelTest, AdmittanceStepsFollowTheStampsWithinTwoPeriods) {
+  const Vector3 start(0, 0, 0.5);  // far above the box: free motion
+  const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_ADMITTANCE, start);
+  DeviceSocket device(harness_.realtime.local_endpoint().port());
+  // the free mass-damper step (virtual mass 1 kg, damping 20 N*s/m), pushed with 10 N
+  double v = 0, x = 0;
+  auto step = [&](double dt) {
+    v = (1.0 * v + dt * 10) / (1.0 + dt * 20);
+    x += dt * v;
+  };
+  const uint64_t t0 = 5'000'000'000;
+  // first state: one period; a second late: two periods; then 0.7 ms and 1.5 ms as sent;
+  // then one stamped 0.1 ms later: half a period
+  const std::vector<std::pair<uint64_t, double>> stamps = {
+      {t0, 1e-3}, {t0 + 1'000'000'000, 2e-3}, {t0 + 1'000'700'000, 0.7e-3},
+      {t0 + 1'002'200'000, 1.5e-3}, {t0 + 1'002'300'000, 0.5e-3}};
+  uint64_t sequence = 0;
+  for (const auto& [stamp, dt] : stamps) {
+    DeviceStateSample state;
+    state.sequence = ++sequence;
+    state.send_time_ns = stamp;
+    state.p_WD = start + Vector3(x, 0, 0);
+    state.f_sensed_W = {10, 0, 0};
+    const auto command = Exchange(device, session, state);
+    ASSERT_TRUE(command);
+    step(dt);
+    EXPECT_NEAR(command->p_command_W.x(), x, 1e-12) << "state " << sequence;
+    EXPECT_EQ(command->p_command_W.z(), start.z());
+  }
+}
+
 TEST_F(RealtimeChannelTest, ManySessionsAreServedSideBySide) {
   DeviceSocket device(harness_.realtime.local_endpoint().port());
   std::vector<OpenedSession> sessions;

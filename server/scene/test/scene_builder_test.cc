@@ -104,19 +104,19 @@ TEST_F(SceneBuilderErrors, NamesAreNonEmptyAndUnique) {
 
 TEST_F(SceneBuilderErrors, PrimitiveSizes) {
   EXPECT_EQ(AddError(BoxObject("plate", {0.1, 0.1, -0.001})),
-            "objects[plate].shape.half_extents[2] is -0.001; it must be a finite number > 0");
+            "objects[plate].shape.half_extents[2] is -0.001; it must be in (0, 1000] m");
   EXPECT_EQ(AddError(BoxObject("plate", {kNan, 0.1, 0.1})),
-            "objects[plate].shape.half_extents[0] is nan; it must be a finite number > 0");
+            "objects[plate].shape.half_extents[0] is nan; it must be in (0, 1000] m");
   EXPECT_EQ(AddError(Sphere("ball", 0)),
-            "objects[ball].shape.radius is 0; it must be a finite number > 0");
+            "objects[ball].shape.radius is 0; it must be in (0, 1000] m");
   EXPECT_EQ(AddError(Sphere("ball", kInf)),
-            "objects[ball].shape.radius is inf; it must be a finite number > 0");
+            "objects[ball].shape.radius is inf; it must be in (0, 1000] m");
   ObjectSpec capsule = Sphere("pill");
   capsule.shape = CapsuleShape{0.1, -0.5};
   EXPECT_EQ(AddError(capsule),
-            "objects[pill].shape.half_length is -0.5; it must be a finite number >= 0");
+            "objects[pill].shape.half_length is -0.5; it must be in [0, 1000] m");
   capsule.shape = CapsuleShape{-0.1, 0.5};
-  EXPECT_EQ(AddError(capsule), "objects[pill].shape.radius is -0.1; it must be a finite number > 0");
+  EXPECT_EQ(AddError(capsule), "objects[pill].shape.radius is -0.1; it must be in (0, 1000] m");
 }
 
 TEST_F(SceneBuilderErrors, Materials) {
@@ -127,18 +127,18 @@ TEST_F(SceneBuilderErrors, Materials) {
             "objects[ball].material.dynamic_friction is 0.9; it must be <= static_friction (0.5)");
   ball.material = {};
   ball.material.stiffness = -5;
-  EXPECT_EQ(AddError(ball), "objects[ball].material.stiffness is -5; it must be a finite number > 0");
+  EXPECT_EQ(AddError(ball), "objects[ball].material.stiffness is -5; it must be in (0, 1e+07] N/m");
   ball.material = {};
   ball.material.damping = kNan;
-  EXPECT_EQ(AddError(ball), "objects[ball].material.damping is nan; it must be a finite number >= 0");
+  EXPECT_EQ(AddError(ball), "objects[ball].material.damping is nan; it must be in [0, 1e+05] N*s/m");
   ball.material = {};
   ball.material.static_friction = -0.25;
   EXPECT_EQ(AddError(ball),
-            "objects[ball].material.static_friction is -0.25; it must be a finite number >= 0");
+            "objects[ball].material.static_friction is -0.25; it must be in [0, 10]");
   Material bad;
   bad.dynamic_friction = -kInf;
   EXPECT_EQ(EditError([&](SceneBuilder& b) { b.SetMaterial("box", bad); }),
-            "objects[box].material.dynamic_friction is -inf; it must be a finite number >= 0");
+            "objects[box].material.dynamic_friction is -inf; it must be in [0, 10]");
   EXPECT_EQ(EditError([&](SceneBuilder& b) { b.SetMaterial("nothing", Material{}); }),
             "objects[nothing] does not exist");
 }
@@ -198,8 +198,7 @@ TEST_F(SceneBuilderErrors, ConvexPointSets) {
   EXPECT_EQ(AddError(c), "objects[c].shape.points[2] is [nan, 0, 0]; it must be finite");
   c.shape = ConvexSpec{{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1e101}}};
   EXPECT_EQ(AddError(c),
-            "objects[c].shape.points[3] is [0, 0, 1e+101]; its coordinates must be at most 1e100 "
-            "in magnitude");
+            "objects[c].shape.points[3] is [0, 0, 1e+101]; each coordinate must be within +-10000 m");
   c.shape = ConvexSpec{{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}};
   EXPECT_EQ(AddError(c),
             "objects[c].shape.points are coplanar (their hull has dimension 2); a convex shape "
@@ -241,13 +240,116 @@ TEST_F(SceneBuilderErrors, Meshes) {
             "objects[m].shape.pin is 9; it must be one of auto, sphere, box, capsule, convex, mesh");
 }
 
+// Lengths, coefficients and speeds outside SceneLimits are refused by name, at either
+// end: a sphere of radius 1e308 once rendered 0 N to a device deep inside it.
+TEST_F(SceneBuilderErrors, ValuesOutsideTheirRanges) {
+  EXPECT_EQ(AddError(Sphere("ball", 1e308)), "objects[ball].shape.radius is 1e+308; it must be in (0, 1000] m");
+  EXPECT_EQ(AddError(Sphere("ball", 1000.5)), "objects[ball].shape.radius is 1000.5; it must be in (0, 1000] m");
+  EXPECT_EQ(AddError(BoxObject("slab", {1, 1e4, 1})),
+            "objects[slab].shape.half_extents[1] is 10000; it must be in (0, 1000] m");
+  ObjectSpec far = Sphere("far");
+  far.X_WB.translation = {0, 0, -2e4};
+  EXPECT_EQ(AddError(far), "objects[far].translation is [0, 0, -20000]; each coordinate must be within +-10000 m");
+  ObjectSpec mesh_far;
+  mesh_far.name = "tri";
+  mesh_far.shape = MeshSpec{{{0, 0, 0}, {1, 0, 0}, {0, 1e5, 0}}, {{0, 1, 2}}, Representation::kMesh};
+  EXPECT_EQ(AddError(mesh_far),
+            "objects[tri].shape.vertices[2] is [0, 1e+05, 0]; each coordinate must be within +-10000 m");
+  ObjectSpec stiff = Sphere("stiff");
+  stiff.material.stiffness = 2e7;
+  EXPECT_EQ(AddError(stiff), "objects[stiff].material.stiffness is 2e+07; it must be in (0, 1e+07] N/m");
+  stiff.material.stiffness = 1000;
+  stiff.material.damping = 1e6;
+  EXPECT_EQ(AddError(stiff), "objects[stiff].material.damping is 1e+06; it must be in [0, 1e+05] N*s/m");
+  stiff.material.damping = 0;
+  stiff.material.static_friction = 11;
+  EXPECT_EQ(AddError(stiff), "objects[stiff].material.static_friction is 11; it must be in [0, 10]");
+  ObjectSpec fast = Sphere("fast");
+  fast.motion = Motion::kKinematic;
+  fast.v_WB = {300, 0, 0};
+  EXPECT_EQ(AddError(fast), "objects[fast].v_WB is [300, 0, 0]; its speed must be at most 100 m/s");
+  EXPECT_EQ(EditError([](SceneBuilder& b) { b.MoveKinematic("mover", Pose{}, Vector3::Zero(), {0, 0, 2e3}); }),
+            "objects[mover].w_WB is [0, 0, 2000]; its rate must be at most 1000 rad/s");
+  // the ends themselves are allowed
+  SceneBuilder builder;
+  ObjectSpec edge = Sphere("edge", SceneLimits::kMaxSize);
+  edge.X_WB.translation = {SceneLimits::kMaxCoordinate, 0, -SceneLimits::kMaxCoordinate};
+  edge.material.stiffness = SceneLimits::kMaxStiffness;
+  EXPECT_NO_THROW(builder.Add(edge));
+}
+
+// Budgets bound the work one scene can ask for; each refusal names its budget and
+// leaves the scene as it was.
+TEST(SceneBudgets, EachRefusalNamesItsBudget) {
+  SceneSettings settings;
+  settings.budgets.max_objects = 3;
+  settings.budgets.max_triangles_per_mesh = 1000;
+  settings.budgets.max_triangles = 1500;
+  settings.budgets.max_points_per_convex = 8;
+  settings.budgets.max_name_bytes = 10;
+  SceneBuilder builder(settings);
+  const geometry::TriangleMesh sphere = geometry::MakeIcosphere(6, 1.0);  // 720 triangles
+  ASSERT_EQ(sphere.num_triangles(), 720);
+  ObjectSpec mesh;
+  mesh.name = "m1";
+  mesh.shape = MeshSpec{sphere.vertices(), sphere.triangles(), Representation::kMesh};
+  builder.Add(mesh);
+  // a second mesh fits the total (1440 <= 1500); a third does not
+  mesh.name = "m2";
+  builder.Add(mesh);
+  mesh.name = "m3";
+  EXPECT_EQ(ErrorOf([&] { builder.Add(mesh); }),
+            "objects[m3] would bring the scene to 2160 triangles; the budget is 1500 (max_triangles)");
+  // replacing a mesh counts the new one in place of the old
+  EXPECT_NO_THROW(builder.Update([&] { ObjectSpec m = mesh; m.name = "m2"; return m; }()));
+  // one mesh over the per-mesh budget is refused before any work is spent on it
+  const geometry::TriangleMesh big = geometry::MakeIcosphere(10, 1.0);
+  ASSERT_GT(big.num_triangles(), 1000);
+  mesh.shape = MeshSpec{big.vertices(), big.triangles(), Representation::kMesh};
+  EXPECT_EQ(ErrorOf([&] { builder.Update([&] { ObjectSpec m = mesh; m.name = "m1"; return m; }()); }),
+            "objects[m1].shape has " + std::to_string(big.num_triangles()) +
+                " triangles; the budget is 1000 per mesh (max_triangles_per_mesh)");
+  // names
+  EXPECT_EQ(ErrorOf([&] { builder.Add(Sphere("a_very_long_name")); }),
+            "objects[a_very_long_name...].name has 16 bytes; the budget is 10 (max_name_bytes)");
+  EXPECT_EQ(ErrorOf([&] { builder.Add(Sphere("bad\nname")); }),
+            "objects[] name has the control character 10; names must be printable");
+  // hull points
+  ObjectSpec hull;
+  hull.name = "hull";
+  hull.shape = ConvexSpec{std::vector<Vector3>(9, Vector3::Zero())};
+  EXPECT_EQ(ErrorOf([&] { builder.Add(hull); }),
+            "objects[hull].shape.points has 9 points; the budget is 8 (max_points_per_convex)");
+  // objects
+  builder.Add(Sphere("s"));
+  EXPECT_EQ(builder.num_objects(), 3);
+  EXPECT_EQ(ErrorOf([&] { builder.Add(Sphere("t")); }), "the scene has 3 objects; the budget is 3 (max_objects)");
+  EXPECT_EQ(builder.num_objects(), 3);
+}
+
+// A million copies of one triangle are one triangle: the repeats are dropped at
+// validation (counted), so a query near them visits one leaf, not a million.
+TEST(SceneBudgets, RepeatedTrianglesAreDroppedAtValidation) {
+  ObjectSpec copies;
+  copies.name = "copies";
+  MeshSpec spec{{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}, {}, Representation::kMesh};
+  spec.triangles.assign(100'000, {0, 1, 2});
+  copies.shape = spec;
+  SceneBuilder builder;
+  const SceneObject& object = builder.Add(copies);
+  const auto& bvh = std::get<MeshShape>(object.shape).bvh;
+  EXPECT_EQ(bvh->mesh().num_triangles(), 100'000);
+  EXPECT_EQ(bvh->mesh().num_repeated_triangles(), 99'999);
+  EXPECT_EQ(bvh->num_primitives(), 1);
+}
+
 TEST_F(SceneBuilderErrors, MissingObjectsAndSettings) {
   EXPECT_EQ(EditError([](SceneBuilder& b) { b.Remove("nothing"); }), "objects[nothing] does not exist");
   EXPECT_EQ(EditError([](SceneBuilder& b) { b.Update(Sphere("nothing")); }),
             "objects[nothing] does not exist");
   // a bad update of an existing object leaves the old one
   EXPECT_EQ(EditError([](SceneBuilder& b) { b.Update(BoxObject("box", {1, 1, 0})); }),
-            "objects[box].shape.half_extents[2] is 0; it must be a finite number > 0");
+            "objects[box].shape.half_extents[2] is 0; it must be in (0, 1000] m");
   EXPECT_EQ(ErrorOf([] { SceneBuilder(SceneSettings{-1}); }),
             "settings.tolerance is -1; it must be a finite number > 0");
   EXPECT_EQ(ErrorOf([&] { builder_.Build(0); }), "version is 0; snapshot versions run from 1 to 2^64 - 2");

@@ -141,7 +141,7 @@ TEST(ParseScenario, ImpossibleValuesAreNamed) {
   EXPECT_EQ(ErrorWith({"scene.objects.0.shape.radius=1"}),
             "scene.objects[0].shape.radius is not a known field; scene.objects[0].shape has: type, half_extents");
   EXPECT_EQ(ErrorWith({"scene.objects.0.material.stiffness=-5"}),
-            "scene.objects[0].material.stiffness is -5; it must be a finite number > 0");
+            "scene.objects[0].material.stiffness is -5; it must be in (0, 1e+07] N/m");
   EXPECT_EQ(ErrorWith({"scene.objects.0.representation=box"}),
             "scene.objects[0].representation is only for mesh shapes; this shape is a box");
   EXPECT_EQ(ErrorWith({"hand.stiffness=1e30"}),
