@@ -10,6 +10,7 @@ packages=(
   libasio-dev libprotobuf-dev protobuf-compiler libembree-dev libeigen3-dev
   libgtest-dev libgmock-dev libbenchmark-dev rapidjson-dev libfmt-dev libssl-dev libsodium-dev
   python3 python3-venv python3-dev openssl
+  clang libclang-rt-14-dev
 )
 
 missing=()
