@@ -3,7 +3,9 @@ loopback ports (--tcp-port 0 --udp-port 0), its endpoints read from the first st
 line, stopped with SIGTERM, which must end it with exit status 0."""
 
 import json
+import os
 import pathlib
+import resource
 import selectors
 import signal
 import subprocess
@@ -19,11 +21,17 @@ class ServerProcess:
     """A started server: tcp and udp are its "host:port" endpoints; stderr_text() is
     its log so far."""
 
-    def __init__(self, bin_dir: pathlib.Path, *args: str) -> None:
+    def __init__(self, bin_dir: pathlib.Path, *args: str, max_open_files: int | None = None) -> None:
         self._stderr = tempfile.TemporaryFile()
         command = [str(bin_dir / "hapticd"), "--tcp-port", "0", "--udp-port", "0", *args]
+
+        def limit_descriptors() -> None:
+            if max_open_files is not None:
+                resource.setrlimit(resource.RLIMIT_NOFILE, (max_open_files, max_open_files))
+
         self.process = subprocess.Popen(
-            command, stdout=subprocess.PIPE, stderr=self._stderr, text=True
+            command, stdout=subprocess.PIPE, stderr=self._stderr, text=True,
+            preexec_fn=limit_descriptors,
         )
         endpoints = json.loads(self._first_line())
         self.tcp: str = endpoints["tcp"]
@@ -44,6 +52,16 @@ class ServerProcess:
                 f"hapticd exited ({self.process.returncode}): {self.stderr_text()}"
             )
         return line
+
+    def rss_bytes(self) -> int:
+        """The process's resident memory now."""
+        status = pathlib.Path(f"/proc/{self.process.pid}/status").read_text()
+        return int(next(line for line in status.splitlines() if line.startswith("VmRSS:")).split()[1]) * 1024
+
+    def cpu_seconds(self) -> float:
+        """User plus system CPU time the process used so far."""
+        fields = pathlib.Path(f"/proc/{self.process.pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
     def stderr_text(self) -> str:
         """What the server logged so far."""
@@ -68,9 +86,9 @@ class ServerProcess:
 
 
 @contextmanager
-def running_server(bin_dir: pathlib.Path, *args: str):
+def running_server(bin_dir: pathlib.Path, *args: str, max_open_files: int | None = None):
     """A server for the with block; afterwards it must stop cleanly on SIGTERM."""
-    server = ServerProcess(bin_dir, *args)
+    server = ServerProcess(bin_dir, *args, max_open_files=max_open_files)
     try:
         yield server
     finally:

@@ -22,11 +22,13 @@ def test_the_proxy_strokes_the_default_scene(bin_dir):
     lines = done.stdout.splitlines()
     assert len(lines) == 1
     report = json.loads(lines[0])
-    assert report["peer"] == "hapticd" and report["ticks"] == 2000
-    assert report["packets_sent"] == 2000
+    # every tick of the 2 s run, run or skipped after a stall of this shared machine
+    ticks = report["ticks"]
+    assert report["peer"] == "hapticd" and ticks + report["skipped_ticks"] == 2000
+    assert ticks > 1500 and report["packets_sent"] == ticks
     # loopback: every state answered, a handful at most after the tick's budget
     assert report["packets_lost"] == 0 and report["bad"] == 0
-    assert report["packets_answered"] + report["packets_late"] == 2000
+    assert report["packets_answered"] + report["packets_late"] == ticks
     assert 0 < report["rtt_p50_us"] <= report["rtt_p99_us"] <= report["rtt_p999_us"] <= report["rtt_max_us"]
     assert 0 <= report["lateness_p50_us"] <= report["lateness_p99_us"] <= report["lateness_max_us"]
     # the hand presses into the 2000 N/m floor harder than the device's 4 N limit

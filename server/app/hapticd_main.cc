@@ -20,12 +20,14 @@ hapticd::scene::SceneBuilder LoadInitialScene(const hapticd::app::ServerOptions&
   if (options.scene_file.empty()) {
     hapticd::scene::SceneSettings settings;
     settings.ray_backend = options.ray_backend;
+    settings.budgets = options.scene_budgets;
     hapticd::scene::SceneBuilder builder(settings);
     for (const auto& spec : hapticd::app::MakeDefaultScene()) builder.Add(spec);
     return builder;
   }
   hapticd::sim::SceneFile file = hapticd::sim::LoadSceneFile(options.scene_file);
   file.settings.ray_backend = options.ray_backend;
+  file.settings.budgets = options.scene_budgets;
   hapticd::scene::SceneBuilder builder(file.settings);
   for (const auto& spec : file.objects) builder.Add(spec);
   return builder;

@@ -68,6 +68,9 @@ struct Server::Impl {
     control_options.endpoint = asio::ip::tcp::endpoint(asio::ip::make_address(options.host),
                                                        static_cast<unsigned short>(options.tcp_port));
     if (!options.tls_certificate.empty()) control_options.tls = net::TlsFiles{options.tls_certificate, options.tls_key};
+    control_options.max_connections = options.max_connections;
+    control_options.max_frame_bytes = options.max_request_bytes;
+    control_options.idle_timeout = std::chrono::seconds(options.idle_timeout_s);
     return control_options;
   }
 

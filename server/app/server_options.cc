@@ -1,5 +1,6 @@
 #include "server/app/server_options.h"
 
+#include <algorithm>
 #include <charconv>
 
 #include <asio/ip/address.hpp>
@@ -10,14 +11,26 @@
 namespace hapticd::app {
 namespace {
 
-int ReadInt(std::string_view option, std::string_view text, int min, int max) {
-  int value = 0;
+template <typename Int = int>
+Int ReadInt(std::string_view option, std::string_view text, Int min, Int max) {
+  Int value = 0;
   const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), value);
   if (error != std::errc() || end != text.data() + text.size() || value < min || value > max) {
     throw OptionsError(fmt::format("{} is \"{}\"; it must be a whole number from {} to {}", option, text, min, max));
   }
   return value;
 }
+
+std::size_t ReadCount(std::string_view option, std::string_view text, std::size_t max) {
+  return ReadInt<std::size_t>(option, text, 1, max);
+}
+
+// Every option that takes a value; anything else starting with -- is unknown.
+constexpr std::string_view kValueOptions[] = {
+    "--host", "--tcp-port", "--udp-port", "--scene", "--ray-backend", "--max-sessions",
+    "--realtime-priority", "--tls-cert", "--tls-key", "--access-token-file", "--log-level",
+    "--max-objects", "--max-mesh-triangles", "--max-scene-triangles", "--max-connections",
+    "--max-request-bytes", "--idle-timeout"};
 
 }  // namespace
 
@@ -49,6 +62,16 @@ options:
   --access-token-file FILE  its first line is the token clients send in Hello
   --log-level LEVEL         debug, info, warning or error (default info)
   --help                    this text
+
+budgets (what one client can make the server hold or do; over one, a clear error):
+  --max-objects N           objects in the scene (default 1024)
+  --max-mesh-triangles N    triangles in one mesh (default 2000000)
+  --max-scene-triangles N   triangles in all the scene's meshes (default 4000000)
+  --max-connections N       control connections at once (default 64)
+  --max-request-bytes N     bytes in one control frame, request or reply (default
+                            67108864; before a successful Hello 4096)
+  --idle-timeout S          seconds a control connection without subscriptions may
+                            send nothing before it is closed (default 600)
 )";
 }
 
@@ -60,10 +83,12 @@ ServerOptions ParseServerOptions(std::span<const std::string_view> args) {
       options.help = true;
       return options;
     }
-    if (i + 1 >= args.size()) {
-      throw OptionsError(option.starts_with("--") ? fmt::format("{} needs a value", option)
-                                                  : fmt::format("unexpected argument \"{}\"", option));
+    // unknown before missing: "--bogus" is unknown, not short of a value
+    if (std::find(std::begin(kValueOptions), std::end(kValueOptions), option) == std::end(kValueOptions)) {
+      throw OptionsError(option.starts_with("-") ? fmt::format("unknown option \"{}\" (see --help)", option)
+                                                 : fmt::format("unexpected argument \"{}\"", option));
     }
+    if (i + 1 >= args.size()) throw OptionsError(fmt::format("{} needs a value", option));
     const std::string_view value = args[++i];
     if (option == "--host") {
       options.host = value;
@@ -96,8 +121,18 @@ ServerOptions ParseServerOptions(std::span<const std::string_view> args) {
       if (options.log_level == net::LogLevel::kCount) {
         throw OptionsError(fmt::format("--log-level is \"{}\"; it must be debug, info, warning or error", value));
       }
+    } else if (option == "--max-objects") {
+      options.scene_budgets.max_objects = ReadCount(option, value, 1 << 16);
+    } else if (option == "--max-mesh-triangles") {
+      options.scene_budgets.max_triangles_per_mesh = ReadCount(option, value, std::size_t{1} << 28);
+    } else if (option == "--max-scene-triangles") {
+      options.scene_budgets.max_triangles = ReadCount(option, value, std::size_t{1} << 30);
+    } else if (option == "--max-connections") {
+      options.max_connections = ReadCount(option, value, 1 << 14);
+    } else if (option == "--max-request-bytes") {
+      options.max_request_bytes = ReadInt<uint32_t>(option, value, 4096, net::kMaxFrameSize);
     } else {
-      throw OptionsError(fmt::format("unknown option \"{}\" (see --help)", option));
+      options.idle_timeout_s = ReadInt(option, value, 1, 24 * 3600);
     }
   }
 

@@ -6,7 +6,9 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include "server/net/control_server.h"
 #include "server/net/log.h"
+#include "server/scene/scene_limits.h"
 #include "server/scene/shape.h"
 
 namespace hapticd::app {
@@ -29,6 +31,11 @@ struct ServerOptions {
   std::string tls_key;
   std::string access_token_file;  // first line is the token clients must Hello with
   net::LogLevel log_level = net::LogLevel::kInfo;
+  // What one scene and one connection may take (--max-objects, --max-connections, ...).
+  scene::SceneBudgets scene_budgets;
+  std::size_t max_connections = 64;
+  uint32_t max_request_bytes = net::kMaxFrameSize;
+  int idle_timeout_s = 600;
 };
 
 // The usage text printed by --help.

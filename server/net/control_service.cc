@@ -94,21 +94,30 @@ v1::Reply ControlService::Dispatch(const v1::Request& request, ConnectionState& 
   }
   switch (request.body_case()) {
     case R::kHello: {
+      // A failed Hello is the connection's last request: the transport closes it after
+      // the error (and counts the failure against the peer's address).
       const v1::Hello& hello = request.hello();
       if (hello.protocol_version() != kProtocolVersion) {
+        connection.close_after_reply = true;
+        ++connection_counters_.hello_failures;
         throw BadRequest(fmt::format("hello.protocol_version is {}; this server speaks {}",
                                      hello.protocol_version(), kProtocolVersion));
       }
-      if (!connection.authenticated) {
+      // With a token configured every Hello must carry it, on loopback too.
+      if (!options_.access_token.empty() || !connection.authenticated) {
         // Constant-time comparison of equal-length strings; a length mismatch is a miss.
         const std::string& token = hello.access_token();
         const bool match = token.size() == options_.access_token.size() &&
                            sodium_memcmp(token.data(), options_.access_token.data(), token.size()) == 0;
         if (!match || options_.access_token.empty()) {
-          throw RequestError(v1::Error::CODE_UNAUTHENTICATED, "hello.access_token is not this server's token");
+          connection.close_after_reply = true;
+          ++connection_counters_.hello_failures;
+          throw RequestError(v1::Error::CODE_UNAUTHENTICATED,
+                             "hello.access_token is not this server's token; closing the connection");
         }
         connection.authenticated = true;
       }
+      connection.said_hello = true;
       v1::Reply reply;
       reply.mutable_hello()->set_protocol_version(kProtocolVersion);
       reply.mutable_hello()->set_server_name(options_.server_name);
@@ -446,6 +455,10 @@ void ControlService::WriteCounters(v1::ServerCounters* out) const {
   out->set_sessions_closed(sessions_closed_);
   out->set_sessions_timed_out(realtime_.sessions_timed_out.load());
   out->set_control_errors(control_errors_);
+  out->set_connections_open(connection_counters_.open);
+  out->set_connections_refused(connection_counters_.refused);
+  out->set_connections_timed_out(connection_counters_.timed_out);
+  out->set_hello_failures(connection_counters_.hello_failures);
 }
 
 }  // namespace hapticd::net

@@ -25,10 +25,23 @@ struct Subscription {
 
 // What the service knows about the connection a request came on.
 struct ConnectionState {
-  bool authenticated = false;  // loopback connections start authenticated
+  // Loopback connections start authenticated when the server has no access token;
+  // otherwise a Hello with the token authenticates.
+  bool authenticated = false;
+  bool said_hello = false;  // a Hello succeeded: the connection may send full-size frames
+  // Set by Handle when its reply must be the connection's last (a failed Hello).
+  bool close_after_reply = false;
   std::map<uint64_t, Subscription> subscriptions;
   // Set by Handle when a Subscribe or Unsubscribe changed `subscriptions`.
   bool subscriptions_changed = false;
+};
+
+// The transport's counts, kept here so that stats and telemetry report them.
+struct ConnectionCounters {
+  uint64_t open = 0;
+  uint64_t refused = 0;
+  uint64_t timed_out = 0;
+  uint64_t hello_failures = 0;
 };
 
 struct ServiceOptions {
@@ -56,6 +69,8 @@ class ControlService {
   void ReclaimSessions();
 
   const ServiceOptions& options() const { return options_; }
+  // Control thread only: the transport counts its connections here.
+  ConnectionCounters& connection_counters() { return connection_counters_; }
 
  private:
   v1::Reply Dispatch(const v1::Request& request, ConnectionState& connection);
@@ -80,6 +95,7 @@ class ControlService {
   uint64_t sessions_opened_ = 0;
   uint64_t sessions_closed_ = 0;
   uint64_t control_errors_ = 0;
+  ConnectionCounters connection_counters_;
   // Sessions reclaimed lately, reported in telemetry for a while so no subscriber misses
   // how a session ended.
   struct EndedSession {

@@ -37,12 +37,35 @@ TEST(ServerOptions, NamesTheBadOption) {
   EXPECT_EQ(ErrorOf({"--udp-port", "12x"}), "--udp-port is \"12x\"; it must be a whole number from 0 to 65535");
   EXPECT_EQ(ErrorOf({"--udp-port"}), "--udp-port needs a value");
   EXPECT_EQ(ErrorOf({"--colour", "red"}), "unknown option \"--colour\" (see --help)");
+  // unknown first: an unknown option at the end is not "short of a value"
+  EXPECT_EQ(ErrorOf({"--bogus"}), "unknown option \"--bogus\" (see --help)");
+  EXPECT_EQ(ErrorOf({"stray"}), "unexpected argument \"stray\"");
   EXPECT_EQ(ErrorOf({"--log-level", "loud"}), "--log-level is \"loud\"; it must be debug, info, warning or error");
   EXPECT_EQ(ErrorOf({"--host", "localhost"}), "--host is \"localhost\"; it is not an IP address");
   EXPECT_EQ(ErrorOf({"--tls-cert", "c.pem"}), "--tls-cert and --tls-key go together; give both or neither");
   EXPECT_EQ(ErrorOf({"--ray-backend", "optix"}), "--ray-backend is \"optix\"; it must be native or embree");
   EXPECT_EQ(Parse({"--ray-backend", "embree"}).ray_backend, scene::RayBackend::kEmbree);
   EXPECT_EQ(Parse({}).ray_backend, scene::RayBackend::kNative);
+}
+
+TEST(ServerOptions, BudgetsAreSetAndBounded) {
+  const ServerOptions defaults = Parse({});
+  EXPECT_EQ(defaults.scene_budgets.max_objects, 1024u);
+  EXPECT_EQ(defaults.max_connections, 64u);
+  EXPECT_EQ(defaults.max_request_bytes, 64u << 20);
+  const ServerOptions set = Parse({"--max-objects", "10", "--max-mesh-triangles", "5000", "--max-scene-triangles",
+                                   "9000", "--max-connections", "3", "--max-request-bytes", "100000",
+                                   "--idle-timeout", "30"});
+  EXPECT_EQ(set.scene_budgets.max_objects, 10u);
+  EXPECT_EQ(set.scene_budgets.max_triangles_per_mesh, 5000u);
+  EXPECT_EQ(set.scene_budgets.max_triangles, 9000u);
+  EXPECT_EQ(set.max_connections, 3u);
+  EXPECT_EQ(set.max_request_bytes, 100000u);
+  EXPECT_EQ(set.idle_timeout_s, 30);
+  EXPECT_EQ(ErrorOf({"--max-objects", "0"}), "--max-objects is \"0\"; it must be a whole number from 1 to 65536");
+  EXPECT_EQ(ErrorOf({"--max-request-bytes", "100"}),
+            "--max-request-bytes is \"100\"; it must be a whole number from 4096 to 67108864");
+  EXPECT_EQ(ErrorOf({"--idle-timeout", "-5"}), "--idle-timeout is \"-5\"; it must be a whole number from 1 to 86400");
 }
 
 TEST(ServerOptions, LeavingLoopbackNeedsTlsAndAToken) {

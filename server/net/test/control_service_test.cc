@@ -171,17 +171,38 @@ TEST(ControlService, AnUntrustedConnectionMustHelloWithTheToken) {
   v1::Request hello;
   hello.mutable_hello()->set_protocol_version(1);
   hello.mutable_hello()->set_access_token("wrong");
+  // a failed Hello is the connection's last request, and it is counted
   ExpectError(harness.service.Handle(hello, remote), v1::Error::CODE_UNAUTHENTICATED,
-              "hello.access_token is not this server's token");
+              "hello.access_token is not this server's token; closing the connection");
+  EXPECT_TRUE(remote.close_after_reply);
+  EXPECT_FALSE(remote.said_hello);
+  remote = ConnectionState{};
   hello.mutable_hello()->set_protocol_version(2);
   ExpectError(harness.service.Handle(hello, remote), v1::Error::CODE_BAD_REQUEST,
               "hello.protocol_version is 2; this server speaks 1");
+  EXPECT_TRUE(remote.close_after_reply);
+  EXPECT_EQ(harness.service.connection_counters().hello_failures, 2u);
+  remote = ConnectionState{};
   hello.mutable_hello()->set_protocol_version(1);
   hello.mutable_hello()->set_access_token("0123456789abcdef-token");
   const v1::Reply welcome = harness.service.Handle(hello, remote);
   ASSERT_TRUE(welcome.has_hello());
+  EXPECT_FALSE(remote.close_after_reply);
+  EXPECT_TRUE(remote.said_hello);
   EXPECT_EQ(welcome.hello().udp_endpoint(), harness.service.options().udp_endpoint);
   EXPECT_TRUE(harness.service.Handle(get, remote).has_scene());
+}
+
+// With a token configured, a connection that starts authenticated (loopback) still
+// needs the token in its Hello: a wrong one fails and closes, as anywhere else.
+TEST(ControlService, WithATokenEveryHelloMustCarryIt) {
+  Harness harness;  // its service has a token; harness.connection starts authenticated
+  v1::Request hello;
+  hello.mutable_hello()->set_protocol_version(1);
+  hello.mutable_hello()->set_access_token("wrong");
+  ExpectError(harness.Call(hello), v1::Error::CODE_UNAUTHENTICATED,
+              "hello.access_token is not this server's token; closing the connection");
+  EXPECT_TRUE(harness.connection.close_after_reply);
 }
 
 TEST(ControlService, QueriesAnswerInTheWorldFrame) {

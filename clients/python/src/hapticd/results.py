@@ -136,6 +136,10 @@ class ServerCounters:
     sessions_closed: int = 0
     sessions_timed_out: int = 0
     control_errors: int = 0
+    connections_open: int = 0
+    connections_refused: int = 0
+    connections_timed_out: int = 0
+    hello_failures: int = 0
 
 
 @dataclass(frozen=True, eq=False)
