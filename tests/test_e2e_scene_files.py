@@ -26,19 +26,6 @@ SHAPE_NAMES = {
     hapticd.Convex: "convex",
     hapticd.Mesh: "mesh",
 }
-# Files the server accepts though it should not: each a server bug, written down here
-# until it is fixed (strict: the test fails once the server refuses the file too).
-SERVER_ACCEPTS_WRONGLY = {
-    "invalid-radius-given_twice.json": (
-        "the server's JSON reader keeps the first of two equal keys and ignores the second"
-    ),
-    "invalid-ray_backend-on_a_sphere.json": (
-        "the server takes a ray_backend on any shape and ignores it off meshes, while it "
-        "refuses a representation there"
-    ),
-}
-
-
 def field_of(path):
     """The field an invalid file breaks: the middle of invalid-<field>-<how>.json."""
     return path.stem.split("-")[1]
@@ -67,20 +54,10 @@ def test_both_readers_refuse_an_invalid_file_naming_its_field(bin_dir, path):
         hapticd.read_scene_file(path)
     # the message names the field, not just the file (whose name holds it too)
     assert field in str(refused.value).replace(str(path), "FILE").lower()
-    if path.name in SERVER_ACCEPTS_WRONGLY:
-        pytest.xfail(SERVER_ACCEPTS_WRONGLY[path.name])
     code, log = server_refusal(bin_dir, path)
     assert code == 2, f"hapticd exited {code} on {path.name}: {log}"
     assert f"--scene {path}: " in log
     assert field in log.replace(str(path), "FILE").lower(), log
-
-
-@pytest.mark.parametrize("path", sorted(SERVER_ACCEPTS_WRONGLY), ids=str)
-def test_the_server_still_accepts_the_files_it_should_refuse(bin_dir, path):
-    """Each known server bug above is still there; when one is fixed, drop it from
-    SERVER_ACCEPTS_WRONGLY (this test then fails for it)."""
-    with running_server(bin_dir, "--scene", str(GOLDEN / path), "--log-level", "error") as server:
-        assert server.alive
 
 
 @pytest.mark.parametrize("path", VALID, ids=lambda path: path.name)
@@ -113,3 +90,40 @@ def test_both_readers_accept_a_valid_file_alike(bin_dir, path):
         else:
             # a mesh's pose is its representation's; a primitive's is the object's
             assert np.allclose(info.pose.position, spec.pose.position, atol=1e-12), spec.name
+
+
+def test_inside_out_and_open_meshes_are_reported_and_answered_by_their_rule(bin_dir):
+    """The inside-out tetrahedron is rewound (its info says so) and has its inside
+    back: 2 cm inside it is -2 cm, and a contact; the open plate is a surface, whose
+    distance is unsigned from either side; a ray from inside reports where it leaves."""
+    path = GOLDEN / "valid-inside_out_and_open_meshes.json"
+    with running_server(bin_dir, "--scene", str(path), "--log-level", "warning") as server:
+        with hapticd.connect(server.tcp, timeout_s=10) as client:
+            scene = client.scene()
+            tetra, plate, ball = (scene.object(n) for n in ("inside_out", "plate", "ball"))
+            assert (tetra.closed, tetra.topology, tetra.rewound_triangles) == (True, "closed", 4)
+            assert tetra.warnings == (
+                "rewound 4 of 4 triangles so that the mesh's normals point out of its solid",
+            )
+            assert (plate.closed, plate.topology, plate.rewound_triangles) == (False, "open", 0)
+            assert len(plate.warnings) == 1 and "no inside" in plate.warnings[0]
+            assert (ball.closed, ball.topology, ball.warnings) == (False, "", ())
+
+            inside = (0.02, 0.02, 0.02)
+            nearest = client.closest_point(inside, 0.5)
+            assert nearest.object == "inside_out"
+            assert nearest.signed_distance == pytest.approx(-0.02, abs=1e-12)
+            contacts = client.find_contacts(inside, 0.0)
+            assert [c.object for c in contacts] == ["inside_out"]
+            assert contacts[0].depth == pytest.approx(0.02, abs=1e-12)
+
+            for side in (1, -1):
+                below = client.closest_point((0.5, 0.01, side * 0.03), 0.5)
+                assert below.object == "plate"
+                assert below.signed_distance == pytest.approx(0.03, abs=1e-12)
+                assert np.allclose(below.normal, (0, 0, side), atol=1e-12)
+
+            leaving = client.ray_cast(inside, (-1, 0, 0), 1.0)
+            assert (leaving.hit, leaving.object) == (True, "inside_out")
+            assert leaving.distance == pytest.approx(0.02, abs=1e-12)
+            assert np.allclose(leaving.normal, (1, 0, 0), atol=1e-12)

@@ -133,15 +133,17 @@ geometry::MeshClosestPoint FindClosestPoint(const MeshShape& shape, const Vector
                       : geometry::FindClosestPointOnMesh(*shape.bvh, p, max_distance);
 }
 
-// The closest surface point, then the side of p against the closest feature's
-// angle-weighted pseudo-normal (Baerentzen & Aanaes 2005). A point deeper inside a
-// closed mesh than max_distance is still found, by the inside test.
+// A closed mesh: the closest surface point, then the side of p against the closest
+// feature's angle-weighted pseudo-normal (Baerentzen & Aanaes 2005). A point deeper
+// inside than max_distance is still found, by the inside test. An open mesh is a
+// surface: the distance is unsigned, and nothing is inside it.
 ShapeProbe ProbeMesh(const MeshShape& shape, const Vector3& p, double max_distance) {
   ShapeProbe probe;
   const geometry::TriangleMesh& mesh = shape.bvh->mesh();
+  const bool solid = mesh.is_closed();
   geometry::MeshClosestPoint closest = FindClosestPoint(shape, p, max_distance);
   if (!closest.found) {
-    if (!mesh.is_closed() || !mesh.bounds().Contains(p)) return probe;
+    if (!solid || !mesh.bounds().Contains(p)) return probe;
     const geometry::MeshSignedDistance inside = shape.embree
                                                     ? embree::CalcSignedDistanceToMesh(*shape.embree, p)
                                                     : geometry::CalcSignedDistanceToMesh(*shape.bvh, p);
@@ -150,7 +152,7 @@ ShapeProbe ProbeMesh(const MeshShape& shape, const Vector3& p, double max_distan
   }
   const Vector3 pseudo_normal = mesh.FeatureNormal(closest.triangle, closest.feature);
   const Vector3 gap = p - closest.point;
-  const bool outside = gap.dot(pseudo_normal) > 0 || (!mesh.is_closed() && gap.dot(pseudo_normal) == 0);
+  const bool outside = !solid || gap.dot(pseudo_normal) > 0;
   probe.found = true;
   probe.triangle = closest.triangle;
   probe.point_B = closest.point;
@@ -273,6 +275,12 @@ ShapeSweep SweepMesh(const MeshShape& shape, const Vector3& a, const Vector3& b,
   return sweep;
 }
 
+// A convex shape's first contact: in closed form for a sphere, by advancement otherwise.
+ShapeSweep SweepConvexShape(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
+  if (const auto* sphere = std::get_if<SphereShape>(&shape)) return SweepSphere(*sphere, a, b, r);
+  return SweepConvex(shape, a, b, r);
+}
+
 }  // namespace
 
 ShapeProbe ProbeShape(const scene::Shape& shape, const Vector3& p_B, double max_distance) {
@@ -296,10 +304,24 @@ ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const
                             double r) {
   if (!a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || a_B == b_B) return {};
   switch (scene::TypeOf(shape)) {
-    case scene::ShapeType::kSphere: return SweepSphere(std::get<SphereShape>(shape), a_B, b_B, r);
     case scene::ShapeType::kMesh: return SweepMesh(std::get<MeshShape>(shape), a_B, b_B, r);
-    default: return SweepConvex(shape, a_B, b_B, r);
+    case scene::ShapeType::kCount: return {};
+    default: break;
   }
+  // a point from inside a convex solid (deeper than the touching tolerance, which
+  // counts as on the surface): where the segment leaves it, found as the first contact
+  // of the reversed segment from an end that is not inside (the line meets a convex
+  // solid in one interval), its normal turned back towards a_B
+  if (r == 0 && ProbeShape(shape, a_B, kInfinity).signed_distance < -kSweepTolerance) {
+    const ShapeProbe end = ProbeShape(shape, b_B, kInfinity);
+    if (!end.found || end.signed_distance < -kSweepTolerance) return {};
+    ShapeSweep exit = SweepConvexShape(shape, b_B, a_B, 0);
+    if (!exit.hit) return {};
+    exit.t = 1 - exit.t;
+    exit.normal_B = -exit.normal_B;
+    return exit;
+  }
+  return SweepConvexShape(shape, a_B, b_B, r);
 }
 
 Vector3 CalcShadingNormal(const scene::Shape& shape, int triangle, const Vector3& point_B,

@@ -20,8 +20,11 @@ struct ShapeProbe {
   int triangle = -1;                   // meshes: the triangle holding point_B
 };
 
-// Nearest surface point of shape to p_B and p's signed distance. Open meshes have no
-// inside: their sign is that of the side of the nearest feature's pseudo-normal. Only
+// Nearest surface point of shape to p_B and p's signed distance. A closed mesh is a
+// solid like the primitives. An open mesh (geometry::TriangleMesh::is_closed() false)
+// is a surface with no inside: its signed distance is the unsigned distance (never
+// negative, so nothing is ever inside it and a point avatar never penetrates it), and
+// normal_B points from the surface towards p (the pseudo-normal where p is on it). Only
 // surfaces within max_distance (>= 0) are looked for. Real-time safe.
 ShapeProbe ProbeShape(const scene::Shape& shape, const Vector3& p_B, double max_distance);
 
@@ -36,6 +39,15 @@ struct ShapeSweep {
 // First contact of a sphere of radius r >= 0 (0: a point) whose centre moves a_B -> b_B.
 // A surface the sphere already touches at t = 0 counts only if the motion goes into it,
 // so a proxy resting on a surface can slide along it. Real-time safe.
+//
+// A point (r = 0, a ray cast) follows one rule in every representation: it reports the
+// first surface crossing along a_B -> b_B, whichever side it comes from. So a point
+// starting inside a solid (primitive, hull or closed mesh) hits where it leaves it,
+// with normal_B turned back towards a_B (into the solid), and misses if b_B is inside
+// too; a point starting on the surface hits at t = 0 only when it moves into the
+// solid. Open meshes block from both sides like any surface. For primitives and hulls
+// "on the surface" means within 1e-10 m of it (the sweeps' touching tolerance), and
+// the crossings they report are within that of the exact one.
 ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const Vector3& b_B,
                             double r);
 

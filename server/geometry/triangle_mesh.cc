@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -34,19 +35,92 @@ Vector3 NormalizedOrZero(const Vector3& v) {
   return v / n;
 }
 
+// One directed edge of a triangle, filed under the smaller of its vertex indices.
+struct EdgeEntry {
+  int hi;       // the larger vertex index of the edge
+  int slot;     // 3 * triangle + edge
+  bool upward;  // traversed from the smaller index to the larger
+};
+
+// Solid angle (sr) that triangle tri subtends at p, positive where p lies behind the
+// face (against its right-handed normal); Van Oosterom & Strackee 1983, whose atan2 form
+// stays accurate for tiny and for near-2 pi angles. 0 when p is a corner.
+double CalcSolidAngle(const Vector3& p, const Triangle& tri) {
+  const Vector3 a = tri.v0 - p, b = tri.v1 - p, c = tri.v2 - p;
+  const double la = a.norm(), lb = b.norm(), lc = c.norm();
+  const double numerator = a.dot(b.cross(c));
+  const double denominator = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+  return 2 * std::atan2(numerator, denominator);
+}
+
+// Edges are matched by vertex index. Each directed edge a->b of a non-degenerate
+// triangle goes into the bucket of min(a, b) (a counting sort, linear time); inside a
+// bucket, which holds only the edges around one vertex, equal max(a, b) are grouped
+// by a small sort. visit(first, last) is called once per undirected edge with the
+// range of its directed edges.
+template <typename Visit>
+void ForEachEdgeGroup(const std::vector<TriangleMesh::TriangleIndices>& triangles,
+                      const std::vector<int>& which, int num_vertices, Visit visit) {
+  std::vector<int> start(num_vertices + 1, 0);
+  auto edge_ends = [&](int t, int e) {
+    const TriangleMesh::TriangleIndices& f = triangles[t];
+    return std::pair<int, int>(f[e], f[(e + 1) % 3]);
+  };
+  // count edges per bucket, then place them
+  for (int t : which) {
+    for (int e = 0; e < 3; ++e) {
+      const auto [a, b] = edge_ends(t, e);
+      ++start[std::min(a, b) + 1];
+    }
+  }
+  for (int v = 0; v < num_vertices; ++v) start[v + 1] += start[v];
+  std::vector<EdgeEntry> entries(start[num_vertices]);
+  std::vector<int> fill(start.begin(), start.end() - 1);
+  for (int t : which) {
+    for (int e = 0; e < 3; ++e) {
+      const auto [a, b] = edge_ends(t, e);
+      entries[fill[std::min(a, b)]++] = {std::max(a, b), 3 * t + e, a < b};
+    }
+  }
+  // group each bucket by the other end
+  for (int v = 0; v < num_vertices; ++v) {
+    auto first = entries.begin() + start[v];
+    auto last = entries.begin() + start[v + 1];
+    std::sort(first, last, [](const EdgeEntry& x, const EdgeEntry& y) { return x.hi < y.hi; });
+    for (auto group = first; group != last;) {
+      auto end = group;
+      while (end != last && end->hi == group->hi) ++end;
+      visit(group, end);
+      group = end;
+    }
+  }
+}
+
 }  // namespace
 
 TriangleMesh::TriangleMesh(std::vector<Vector3> vertices, std::vector<TriangleIndices> triangles)
     : vertices_(std::move(vertices)), triangles_(std::move(triangles)) {
   Validate();
-  ComputeFaceData();
+  FindDegenerateTriangles();
   if (nondegenerate_.empty()) {
     throw std::invalid_argument("mesh has no triangle of non-zero area: all " +
                                 std::to_string(triangles_.size()) +
                                 " triangles are degenerate (collinear or coincident corners)");
   }
+  OrientShells();
+  ComputeFaceData();
   ComputeEdgeData();
   ComputeVertexNormals();
+}
+
+std::string_view MeshClosureName(MeshClosure closure) {
+  switch (closure) {
+    case MeshClosure::kClosed: return "closed";
+    case MeshClosure::kOpen: return "open";
+    case MeshClosure::kNonOrientable: return "non-orientable";
+    case MeshClosure::kCount: break;
+  }
+  return "unknown";
 }
 
 const Vector3& TriangleMesh::FeatureNormal(int t, TriangleFeature feature) const {
@@ -96,12 +170,10 @@ void TriangleMesh::Validate() const {
   }
 }
 
-void TriangleMesh::ComputeFaceData() {
+void TriangleMesh::FindDegenerateTriangles() {
   const int num = num_triangles();
   degenerate_.assign(num, 0);
-  face_normals_.assign(num, Vector3::Zero());
   nondegenerate_.reserve(num);
-  signed_volume_ = 0;
   for (int t = 0; t < num; ++t) {
     const Triangle tri = triangle(t);
     // zero area, decided exactly: dropped from every query
@@ -112,6 +184,11 @@ void TriangleMesh::ComputeFaceData() {
     nondegenerate_.push_back(t);
   }
   DropRepeatedTriangles();
+}
+
+void TriangleMesh::ComputeFaceData() {
+  face_normals_.assign(num_triangles(), Vector3::Zero());
+  signed_volume_ = 0;
   for (int t : nondegenerate_) {
     const Triangle tri = triangle(t);
     face_normals_[t] = NormalizedOrZero((tri.v1 - tri.v0).cross(tri.v2 - tri.v0));
@@ -159,63 +236,130 @@ void TriangleMesh::DropRepeatedTriangles() {
   std::erase_if(nondegenerate_, [this](int t) { return degenerate_[t] != 0; });
 }
 
-// Edges are matched by vertex index. Each directed edge a->b of a non-degenerate
-// triangle goes into the bucket of min(a, b) (a counting sort, linear time); inside a
-// bucket, which holds only the edges around one vertex, equal max(a, b) are grouped
-// by a small sort. A group is a closed-mesh edge when it holds exactly two entries of
-// opposite direction; each entry's pseudo-normal is the normalised sum of its group's
-// face normals.
-void TriangleMesh::ComputeEdgeData() {
-  struct Entry {
-    int hi;        // the larger vertex index of the edge
-    int slot;      // 3 * triangle + edge
-    bool upward;   // traversed from the smaller index to the larger
-  };
-  const int nv = num_vertices();
-  std::vector<int> start(nv + 1, 0);
-  auto edge_ends = [&](int t, int e) {
-    const TriangleIndices& f = triangles_[t];
-    return std::pair<int, int>(f[e], f[(e + 1) % 3]);
-  };
-  // count edges per bucket, then place them
-  for (int t : nondegenerate_) {
-    for (int e = 0; e < 3; ++e) {
-      const auto [a, b] = edge_ends(t, e);
-      ++start[std::min(a, b) + 1];
+// Theory of operation. Triangles sharing an edge are neighbours; two neighbours agree
+// when they traverse the edge in opposite directions. If every edge has exactly two
+// triangles, a flip bit per triangle is propagated over the neighbours (breadth first,
+// one connected shell at a time) so that every pair agrees after flipping; a pair that
+// cannot agree makes the mesh non-orientable. Each shell is then one closed oriented
+// surface with a signed volume. Its nesting depth, the number of other shells that
+// enclose it, is the sum of their winding numbers (sum of solid angles / 4 pi, each
+// shell counted with its volume made positive) at the centroid of one of its
+// triangles; a shell at an even depth bounds a body and must have positive volume, at
+// an odd depth a cavity and negative volume. A shell that must change sign has all
+// its flip bits inverted. Shells whose box cannot hold that centroid are skipped; past
+// kMaxNestingWork triangle visits the remaining shells count as not nested (outward).
+void TriangleMesh::OrientShells() {
+  const int num = num_triangles();
+  // the neighbour across each edge slot, and whether the two run the edge the same way
+  std::vector<int> neighbour(3 * num, -1);
+  std::vector<char> same_way(3 * num, 0);
+  bool manifold = true;
+  ForEachEdgeGroup(triangles_, nondegenerate_, num_vertices(), [&](auto first, auto last) {
+    if (last - first != 2) {
+      manifold = false;
+      return;
+    }
+    const EdgeEntry& x = first[0];
+    const EdgeEntry& y = first[1];
+    neighbour[x.slot] = y.slot / 3;
+    neighbour[y.slot] = x.slot / 3;
+    same_way[x.slot] = same_way[y.slot] = x.upward == y.upward;
+  });
+  closure_ = MeshClosure::kOpen;
+  if (!manifold) return;
+
+  // flip bits and shells, breadth first
+  std::vector<signed char> flip(num, -1);
+  std::vector<int> shell_of(num, -1);
+  std::vector<int> shell_start;  // into order: the triangles of each shell in turn
+  std::vector<int> order;
+  order.reserve(nondegenerate_.size());
+  for (int seed : nondegenerate_) {
+    if (flip[seed] >= 0) continue;
+    const int shell = static_cast<int>(shell_start.size());
+    shell_start.push_back(static_cast<int>(order.size()));
+    flip[seed] = 0;
+    shell_of[seed] = shell;
+    order.push_back(seed);
+    for (size_t next = shell_start.back(); next < order.size(); ++next) {
+      const int t = order[next];
+      for (int e = 0; e < 3; ++e) {
+        const int u = neighbour[3 * t + e];
+        const signed char wanted = static_cast<signed char>(flip[t] ^ same_way[3 * t + e]);
+        if (flip[u] < 0) {
+          flip[u] = wanted;
+          shell_of[u] = shell;
+          order.push_back(u);
+        } else if (flip[u] != wanted) {
+          closure_ = MeshClosure::kNonOrientable;
+          return;
+        }
+      }
     }
   }
-  for (int v = 0; v < nv; ++v) start[v + 1] += start[v];
-  std::vector<Entry> entries(start[nv]);
-  std::vector<int> fill(start.begin(), start.end() - 1);
-  for (int t : nondegenerate_) {
-    for (int e = 0; e < 3; ++e) {
-      const auto [a, b] = edge_ends(t, e);
-      entries[fill[std::min(a, b)]++] = {std::max(a, b), 3 * t + e, a < b};
+  const int num_shells = static_cast<int>(shell_start.size());
+  shell_start.push_back(static_cast<int>(order.size()));
+  closure_ = MeshClosure::kClosed;
+
+  // each shell's corners after flipping, its volume (six times, about its first corner)
+  auto corners = [&](int t) {
+    Triangle tri = triangle(t);
+    if (flip[t]) std::swap(tri.v1, tri.v2);
+    return tri;
+  };
+  std::vector<double> volume(num_shells, 0);
+  std::vector<Aabb> box(num_shells);
+  for (int s = 0; s < num_shells; ++s) {
+    const Vector3 origin = vertices_[triangles_[order[shell_start[s]]][0]];
+    for (int k = shell_start[s]; k < shell_start[s + 1]; ++k) {
+      const Triangle tri = corners(order[k]);
+      volume[s] += (tri.v0 - origin).dot((tri.v1 - origin).cross(tri.v2 - origin));
+      box[s].Extend(Aabb::OfTriangle(tri));
     }
   }
 
-  // group each bucket by the other end and sum the face normals of each group
-  edge_normals_.assign(3 * triangles_.size(), Vector3::Zero());
-  closed_ = true;
-  for (int v = 0; v < nv; ++v) {
-    auto first = entries.begin() + start[v];
-    auto last = entries.begin() + start[v + 1];
-    std::sort(first, last, [](const Entry& x, const Entry& y) { return x.hi < y.hi; });
-    for (auto group = first; group != last;) {
-      auto end = group;
-      Vector3 sum = Vector3::Zero();
-      int ups = 0;
-      for (; end != last && end->hi == group->hi; ++end) {
-        sum += face_normals_[end->slot / 3];
-        ups += end->upward ? 1 : 0;
+  // nesting depth of each shell among the others, then the sign it must have
+  constexpr long long kMaxNestingWork = 1LL << 25;
+  long long work = 0;
+  for (int s = 0; s < num_shells; ++s) {
+    int depth = 0;
+    const Triangle probe = corners(order[shell_start[s]]);
+    const Vector3 p = (probe.v0 + probe.v1 + probe.v2) / 3;
+    for (int other = 0; other < num_shells && num_shells > 1; ++other) {
+      if (other == s || volume[other] == 0 || !box[other].Contains(p)) continue;
+      work += shell_start[other + 1] - shell_start[other];
+      if (work > kMaxNestingWork) break;
+      double angle = 0;
+      for (int k = shell_start[other]; k < shell_start[other + 1]; ++k) {
+        angle += CalcSolidAngle(p, corners(order[k]));
       }
-      // closed needs exactly one triangle on each side, traversing it oppositely
-      if (end - group != 2 || ups != 1) closed_ = false;
-      const Vector3 normal = NormalizedOrZero(sum);
-      for (auto it = group; it != end; ++it) edge_normals_[it->slot] = normal;
-      group = end;
+      const double winding = (volume[other] > 0 ? 1 : -1) * angle / (4 * std::numbers::pi);
+      depth += static_cast<int>(std::lround(winding));
+    }
+    // a shell enclosing no volume has no side to turn outwards
+    const bool cavity = depth % 2 != 0;
+    if (volume[s] != 0 && (volume[s] < 0) != cavity) {
+      for (int k = shell_start[s]; k < shell_start[s + 1]; ++k) flip[order[k]] ^= 1;
     }
   }
+
+  // rewind: corners 1 and 2 swapped
+  for (int t : nondegenerate_) {
+    if (!flip[t]) continue;
+    std::swap(triangles_[t][1], triangles_[t][2]);
+    ++num_rewound_;
+  }
+}
+
+// Each entry's pseudo-normal is the normalised sum of its edge group's face normals.
+void TriangleMesh::ComputeEdgeData() {
+  edge_normals_.assign(3 * triangles_.size(), Vector3::Zero());
+  ForEachEdgeGroup(triangles_, nondegenerate_, num_vertices(), [&](auto first, auto last) {
+    Vector3 sum = Vector3::Zero();
+    for (auto it = first; it != last; ++it) sum += face_normals_[it->slot / 3];
+    const Vector3 normal = NormalizedOrZero(sum);
+    for (auto it = first; it != last; ++it) edge_normals_[it->slot] = normal;
+  });
 }
 
 // The weight of a corner is its angle, atan2(|e1 x e2|, e1 . e2), which stays accurate

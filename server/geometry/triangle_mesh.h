@@ -11,8 +11,17 @@
 // (the same three corner positions in any order or winding: a coincident copy adds
 // nothing to hit but work), are kept in triangles() so indices stay the caller's, but
 // they are marked degenerate and no query ever reports them.
+//
+// Orientation is fixed at creation too: where the triangles close up into shells (every
+// edge, by vertex index, shared by exactly two of them), each shell's winding is made
+// consistent and turned so that its normals point away from the solid (out of a body,
+// into a cavity nested inside one); the triangles so rewound keep their index and have
+// their corners 1 and 2 swapped in triangles(). A mesh with a boundary or a
+// non-manifold edge, or whose shells admit no consistent winding, is open: a surface
+// with no inside, kept as given.
 
 #include <array>
+#include <string_view>
 #include <vector>
 
 #include "server/geometry/aabb.h"
@@ -20,6 +29,17 @@
 #include "server/geometry/types.h"
 
 namespace hapticd::geometry {
+
+// How the non-degenerate triangles bound a solid.
+enum class MeshClosure {
+  kClosed,         // every edge shared by exactly two triangles, wound consistently: a solid
+  kOpen,           // some edge has one triangle, or more than two: a surface
+  kNonOrientable,  // every edge has two triangles, but no winding makes them agree
+                   // (a Moebius-like shell): a surface like kOpen
+  kCount,
+};
+// "closed", "open", "non-orientable".
+std::string_view MeshClosureName(MeshClosure closure);
 
 class TriangleMesh {
  public:
@@ -33,7 +53,8 @@ class TriangleMesh {
   TriangleMesh(std::vector<Vector3> vertices, std::vector<TriangleIndices> triangles);
 
   const std::vector<Vector3>& vertices() const { return vertices_; }
-  // All triangles as given, degenerate ones included (original indices).
+  // All triangles as given, degenerate ones included (original indices), the rewound
+  // ones with corners 1 and 2 swapped.
   const std::vector<TriangleIndices>& triangles() const { return triangles_; }
   int num_vertices() const { return static_cast<int>(vertices_.size()); }
   int num_triangles() const { return static_cast<int>(triangles_.size()); }
@@ -61,10 +82,15 @@ class TriangleMesh {
 
   // Closed: over the non-degenerate triangles, every undirected edge (by vertex index,
   // not position) is shared by exactly two triangles that traverse it in opposite
-  // directions. Only then do inside and outside mean something.
-  bool is_closed() const { return closed_; }
+  // directions (after rewinding). Only then do inside and outside mean something.
+  bool is_closed() const { return closure_ == MeshClosure::kClosed; }
+  MeshClosure closure() const { return closure_; }
+  // Triangles whose winding creation reversed (0 unless closed): a shell given inside
+  // out, or triangles wound against their neighbours.
+  int num_rewound_triangles() const { return num_rewound_; }
   // Signed volume enclosed, (1/6) sum v0 . (v1 x v2) over the non-degenerate
-  // triangles: positive when a closed mesh's normals point outwards.
+  // triangles: positive for a closed mesh (its normals point outwards), unless its
+  // shells enclose no volume at all.
   double signed_volume() const { return signed_volume_; }
 
   // Unit normal of triangle t (the right-handed normal of v0, v1, v2); zero for a
@@ -82,8 +108,10 @@ class TriangleMesh {
 
  private:
   void Validate() const;
-  void ComputeFaceData();
+  void FindDegenerateTriangles();
   void DropRepeatedTriangles();
+  void OrientShells();
+  void ComputeFaceData();
   void ComputeEdgeData();
   void ComputeVertexNormals();
 
@@ -92,8 +120,9 @@ class TriangleMesh {
   std::vector<char> degenerate_;
   std::vector<int> nondegenerate_;
   int num_repeated_ = 0;
+  MeshClosure closure_ = MeshClosure::kOpen;
+  int num_rewound_ = 0;
   Aabb bounds_;
-  bool closed_ = false;
   double signed_volume_ = 0;
   std::vector<Vector3> face_normals_;
   std::vector<Vector3> edge_normals_;

@@ -251,6 +251,13 @@ void WriteObjectInfo(const scene::SceneObject& object, v1::ObjectInfo* out) {
   WritePose(object.X_WB, out->mutable_pose());
   WriteMaterial(object.material, out->mutable_material());
   out->set_kinematic(object.motion == scene::Motion::kKinematic);
+  // a mesh's closure and warnings, whatever represents it
+  if (was_mesh) {
+    out->set_closed(object.representation.closure == geometry::MeshClosure::kClosed);
+    out->set_topology(std::string(geometry::MeshClosureName(object.representation.closure)));
+    out->set_rewound_triangles(static_cast<uint32_t>(object.representation.rewound_triangles));
+    for (const std::string& warning : object.representation.warnings) out->add_warnings(warning);
+  }
   if (const auto* mesh = std::get_if<scene::MeshShape>(&object.shape)) {
     const geometry::TriangleMesh& triangles = mesh->bvh->mesh();
     out->set_triangles(static_cast<uint32_t>(triangles.num_triangles()));

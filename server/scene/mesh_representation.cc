@@ -554,8 +554,25 @@ Candidate FitConvex(const MeshFacts& facts) {
   }
   const double one_sided = depth + facts.rounding;
   out.shape = ConvexShape{hull};
+  // without coverage, the hull's faces bound the way back: each face's corners are mesh
+  // vertices, and every point of a triangle lies within min(circumradius, longest
+  // side) of one of its corners
+  double face_reach = 0;
+  for (const auto& face : hull->faces) {
+    const Vector3& a = hull->vertices[face[0]];
+    const Vector3& b = hull->vertices[face[1]];
+    const Vector3& c = hull->vertices[face[2]];
+    const double ab = (b - a).norm(), bc = (c - b).norm(), ca = (a - c).norm();
+    const double twice_area = (b - a).cross(c - a).norm();
+    const double longest = std::max({ab, bc, ca});
+    const double circumradius = twice_area > 0 ? ab * bc * ca / (2 * twice_area) : kInf;
+    face_reach = std::max(face_reach, std::min(longest, circumradius));
+  }
+  const double by_faces = std::max(one_sided, face_reach) + facts.rounding;
   if (!problem.empty()) {
-    out.summary = "hull (mesh within " + FormatShort(one_sided) + " m of it) unproven: " + problem;
+    out.bound = by_faces;
+    out.summary = "convex hull within " + FormatShort(out.bound) + " m (bounded by its faces' corners: " +
+                  problem + ")";
     return out;
   }
   // the ball around c inside the hull, and the farthest hull vertex from c
@@ -565,8 +582,9 @@ Candidate FitConvex(const MeshFacts& facts) {
   }
   for (const Vector3& v : hull->vertices) outer = std::max(outer, (v - c).norm());
   if (!(inner > 0)) {
-    out.summary = "hull (mesh within " + FormatShort(one_sided) +
-                  " m of it) unproven: the mesh's centroid is on the hull's boundary";
+    out.bound = by_faces;
+    out.summary = "convex hull within " + FormatShort(out.bound) +
+                  " m (bounded by its faces' corners: the mesh's centroid is on the hull's boundary)";
     return out;
   }
   out.bound = one_sided * outer / inner + facts.rounding;
@@ -594,13 +612,33 @@ Candidate Fit(Representation kind, const MeshFacts& facts) {
   }
 }
 
-RepresentedMesh Finish(Candidate candidate, std::string reason) {
+// What the client is told about the mesh itself, whatever represents it.
+void DescribeMesh(const TriangleMesh& mesh, RepresentationChoice& choice) {
+  choice.closure = mesh.closure();
+  choice.rewound_triangles = mesh.num_rewound_triangles();
+  if (choice.rewound_triangles > 0) {
+    choice.warnings.push_back("rewound " + std::to_string(choice.rewound_triangles) + " of " +
+                              std::to_string(mesh.nondegenerate_triangles().size()) +
+                              " triangles so that the mesh's normals point out of its solid");
+  }
+  if (!mesh.is_closed()) {
+    choice.warnings.push_back(
+        std::string("the mesh is ") + std::string(geometry::MeshClosureName(mesh.closure())) +
+        (mesh.closure() == geometry::MeshClosure::kOpen
+             ? " (an edge has one triangle or more than two)"
+             : " (every edge has two triangles, but no winding agrees across them)") +
+        ": it is a surface with no inside; distances to it are unsigned and nothing is inside it");
+  }
+}
+
+RepresentedMesh Finish(Candidate candidate, std::string reason, const TriangleMesh& mesh) {
   RepresentedMesh out;
   out.shape = std::move(candidate.shape);
   out.choice.chosen = candidate.kind;
   out.choice.error_bound = candidate.bound;
   out.choice.X_MS = candidate.X_MS;
   out.choice.reason = std::move(reason);
+  DescribeMesh(mesh, out.choice);
   return out;
 }
 
@@ -633,18 +671,32 @@ RepresentedMesh ChooseMeshRepresentation(std::shared_ptr<const TriangleMesh> mes
   }
   const std::string within = " <= tolerance " + FormatShort(tolerance) + " m";
 
-  // pinned: that representation, whatever its error
-  if (pin == Representation::kMesh) return Finish(KeepMesh(std::move(mesh)), "pinned: the mesh itself");
-  const MeshFacts facts = CollectFacts(*mesh);
+  // pinned: that representation, whatever its finite error
+  const TriangleMesh& validated = *mesh;
+  if (pin == Representation::kMesh) {
+    return Finish(KeepMesh(std::move(mesh)), "pinned: the mesh itself", validated);
+  }
+  const MeshFacts facts = CollectFacts(validated);
   if (pin != Representation::kAuto) {
+    const std::string pinned(RepresentationName(pin));
     Candidate candidate = Fit(pin, facts);
     if (!candidate.impossible.empty()) {
-      throw std::invalid_argument("cannot represent the mesh as a " +
-                                  std::string(RepresentationName(pin)) + ": " +
-                                  candidate.impossible);
+      throw std::invalid_argument("cannot represent the mesh as a " + pinned + ": " + candidate.impossible);
     }
+    // no finite bound: the pin could be anywhere from the mesh
+    if (!std::isfinite(candidate.bound)) {
+      throw std::invalid_argument("cannot represent the mesh as a " + pinned + ": its distance from the mesh has "
+                                  "no finite bound (" + candidate.summary + ")");
+    }
+    const double bound = candidate.bound;
     std::string reason = "pinned: " + candidate.summary;
-    return Finish(std::move(candidate), std::move(reason));
+    RepresentedMesh out = Finish(std::move(candidate), std::move(reason), validated);
+    if (bound > tolerance) {
+      out.choice.warnings.push_back("the pinned " + pinned + " is within " + FormatShort(bound) +
+                                    " m of the mesh, beyond the scene's tolerance " + FormatShort(tolerance) +
+                                    " m");
+    }
+    return out;
   }
 
   // automatic: the first (cheapest) primitive within tolerance, else the mesh. The
@@ -655,7 +707,7 @@ RepresentedMesh ChooseMeshRepresentation(std::shared_ptr<const TriangleMesh> mes
     Candidate candidate = Fit(kind, facts);
     if (candidate.impossible.empty() && candidate.bound <= tolerance) {
       std::string reason = candidate.summary + within;
-      return Finish(std::move(candidate), std::move(reason));
+      return Finish(std::move(candidate), std::move(reason), validated);
     }
     if (!rejected.empty()) rejected += "; ";
     rejected += candidate.impossible.empty()
@@ -664,7 +716,8 @@ RepresentedMesh ChooseMeshRepresentation(std::shared_ptr<const TriangleMesh> mes
   }
   return Finish(KeepMesh(std::move(mesh)),
                 "mesh kept, nothing cheaper within tolerance " + FormatShort(tolerance) +
-                    " m: " + rejected);
+                    " m: " + rejected,
+                validated);
 }
 
 }  // namespace hapticd::scene

@@ -9,6 +9,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "server/geometry/triangle_mesh.h"
 #include "server/scene/pose.h"
@@ -33,6 +34,14 @@ struct RepresentationChoice {
   Pose X_MS;
   // Why: e.g. "sphere fit within 3.1e-05 m <= tolerance 1e-04 m".
   std::string reason;
+  // The mesh as validated (geometry::TriangleMesh): whether it bounds a solid, and how
+  // many of its triangles were rewound so that its normals point out of it.
+  geometry::MeshClosure closure = geometry::MeshClosure::kOpen;
+  int rewound_triangles = 0;
+  // What the client should know about an accepted mesh, one sentence each: its
+  // triangles were rewound; it is open (a surface: never inside, unsigned distance);
+  // the pinned representation's error bound exceeds the scene's tolerance.
+  std::vector<std::string> warnings;
 };
 
 struct RepresentedMesh {
@@ -44,11 +53,16 @@ struct RepresentedMesh {
 // pin: kAuto to choose the cheapest of a fitted sphere, box or capsule within tolerance,
 // else the mesh (the rule bench/results/speed_accuracy.md measured: a primitive where the
 // surface is one, the mesh otherwise; its convex hull is never cheaper at equal error);
-// or the representation to use whatever its error (kConvex of a non-convex mesh is
-// allowed and reports its error; kSphere/kBox/kCapsule fit anyway).
+// or the representation to use whatever its finite error (kConvex of a non-convex mesh
+// is allowed and reports its error; kSphere/kBox/kCapsule fit anyway), with a warning
+// naming the bound and the tolerance when the bound exceeds it. A hull's bound is always
+// finite; a primitive's is infinite where the mesh is not proven to cover it (an open or
+// non-star-shaped mesh), and such a pin is refused.
+// An open mesh is a surface (geometry::TriangleMesh): never inside anything, so only the
+// mesh itself represents it unless pinned.
 // Allocates and may take a while (hull, BVH): call it off the real-time thread.
 // Throws std::invalid_argument naming the problem when pin is impossible (e.g. kConvex
-// of a flat mesh).
+// of a flat mesh) or its error has no finite bound.
 RepresentedMesh ChooseMeshRepresentation(std::shared_ptr<const geometry::TriangleMesh> mesh,
                                          double tolerance, Representation pin = Representation::kAuto);
 

@@ -45,9 +45,11 @@ enum class RayBackend { kNative, kEmbree, kCount };
 // "native", "embree".
 std::string_view RayBackendName(RayBackend backend);
 
-// A triangle mesh in B with its BVH. Closed meshes are solids (inside means something);
-// open meshes are surfaces whose back side faces away from their normals. With the
-// Embree backend, `embree` is the same mesh in an Embree scene (null for native).
+// A triangle mesh in B with its BVH. Closed meshes are solids (inside means something;
+// validation rewound them so their normals point out); open meshes are surfaces with
+// no inside: distances to them are unsigned, and they block rays and proxies from
+// either side (force/shape_queries.h). With the Embree backend, `embree` is the same
+// mesh in an Embree scene (null for native).
 struct MeshShape {
   std::shared_ptr<const geometry::MeshBvh> bvh;
   std::shared_ptr<const embree::EmbreeMesh> embree = nullptr;

@@ -2,11 +2,18 @@
 
 #include <fmt/format.h>
 #include <rapidjson/error/en.h>
+#include <rapidjson/memorystream.h>
+#include <rapidjson/reader.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <fstream>
 #include <iterator>
+#include <string>
+#include <utility>
+#include <variant>
+#include <vector>
 
 #include "server/scene/mesh_file.h"
 #include "server/sim/hand_device.h"
@@ -185,6 +192,12 @@ ObjectSpec ReadObject(const JsonAt& at, const std::filesystem::path& base_dir) {
   if (const auto backend = object.Optional("ray_backend")) {
     spec.ray_backend =
         ReadEnum<scene::RayBackend>(*backend, NamesOf(scene::RayBackend::kEmbree, scene::RayBackendName));
+    // like representation: meaningless off a mesh, so refused rather than ignored
+    if (!std::holds_alternative<scene::MeshSpec>(spec.shape)) {
+      const auto type = static_cast<scene::ShapeType>(spec.shape.index());
+      throw ScenarioError(fmt::format("{} is only for mesh shapes; this shape is a {}", backend->path,
+                                      scene::ShapeTypeName(type)));
+    }
   }
   return spec;
 }
@@ -328,15 +341,133 @@ Scenario ReadScenario(const JsonAt& root, const std::filesystem::path& base_dir)
   return scenario;
 }
 
+// Follows the path of the value being read (a SAX handler), so that a parse error can
+// name the field it happened in: a member's value ("scene.objects[0].shape.radius"),
+// an array's element ("position[3]"), or the object or array itself.
+class PathTracker : public rapidjson::BaseReaderHandler<rapidjson::UTF8<>, PathTracker> {
+ public:
+  bool StartObject() { return Open(false); }
+  bool StartArray() { return Open(true); }
+  bool Key(const char* text, rapidjson::SizeType length, bool) {
+    levels_.back().key.assign(text, length);
+    levels_.back().in_value = true;
+    return true;
+  }
+  bool EndObject(rapidjson::SizeType) { return Close(); }
+  bool EndArray(rapidjson::SizeType) { return Close(); }
+  // every scalar value
+  bool Default() {
+    ValueDone();
+    return true;
+  }
+
+  // Where the reader stopped: "the value of P" (a member's or an element's value) or
+  // "P" (between members or elements); "" at the top.
+  std::string Where() const {
+    std::string path;
+    for (size_t i = 0; i < levels_.size(); ++i) {
+      const Level& level = levels_[i];
+      const bool last = i + 1 == levels_.size();
+      if (level.array) {
+        if (!last || level.in_value) path += fmt::format("[{}]", level.index);
+      } else if (!last || level.in_value) {
+        path = MemberPath(path, level.key);
+      }
+    }
+    if (path.empty()) return "";
+    const Level& top = levels_.back();
+    return top.in_value ? "the value of " + path : path;
+  }
+
+ private:
+  struct Level {
+    bool array = false;
+    int index = 0;        // arrays: the element being read
+    std::string key;      // objects: the member being read
+    bool in_value = false;  // between a key (or an array's start or comma) and its value's end
+  };
+
+  bool Open(bool array) {
+    levels_.push_back({array, 0, "", array});
+    return true;
+  }
+  bool Close() {
+    levels_.pop_back();
+    ValueDone();
+    return true;
+  }
+  // the value of the innermost member or element is complete
+  void ValueDone() {
+    if (levels_.empty()) return;
+    Level& level = levels_.back();
+    if (level.array) {
+      ++level.index;
+    } else {
+      level.in_value = false;
+    }
+  }
+
+  std::vector<Level> levels_;
+};
+
+// The parse error's position, and the field it is in where the tracker knows it.
+std::string DescribeParseError(std::string_view json, const rapidjson::ParseResult& error) {
+  PathTracker tracker;
+  rapidjson::Reader reader;
+  rapidjson::MemoryStream stream(json.data(), json.size());
+  reader.Parse<rapidjson::kParseFullPrecisionFlag | rapidjson::kParseIterativeFlag>(stream, tracker);
+  std::string where = tracker.Where();
+  std::string text = fmt::format("invalid JSON at {}", LineAndColumn(json, error.Offset()));
+  if (!where.empty()) text += ", in " + where;
+  text += fmt::format(": {}", rapidjson::GetParseError_En(error.Code()));
+  // NaN and infinities are Python's json extensions, not JSON
+  const std::string_view rest = json.substr(std::min(error.Offset(), json.size()));
+  if (rest.starts_with("NaN") || rest.starts_with("Infinity") || rest.starts_with("-Infinity")) {
+    text += " (NaN and Infinity are not JSON numbers; every number must be finite)";
+  }
+  return text;
+}
+
+// Refuses an object that names a member twice (the DOM would keep both, and lookups
+// find the first): "scene.objects[0].shape.radius is given twice". The walk keeps its
+// own stack, so deep nesting cannot overflow the thread's.
+void RefuseRepeatedKeys(const rapidjson::Value& root) {
+  std::vector<std::pair<const rapidjson::Value*, std::string>> pending = {{&root, ""}};
+  std::vector<std::string_view> names;
+  while (!pending.empty()) {
+    auto [value, path] = std::move(pending.back());
+    pending.pop_back();
+    if (value->IsArray()) {
+      for (rapidjson::SizeType i = 0; i < value->Size(); ++i) {
+        pending.emplace_back(&(*value)[i], fmt::format("{}[{}]", path, i));
+      }
+      continue;
+    }
+    if (!value->IsObject()) continue;
+    names.clear();
+    for (const auto& member : value->GetObject()) {
+      names.emplace_back(member.name.GetString(), member.name.GetStringLength());
+      pending.emplace_back(&member.value, MemberPath(path, names.back()));
+    }
+    std::sort(names.begin(), names.end());
+    const auto repeated = std::adjacent_find(names.begin(), names.end());
+    if (repeated != names.end()) {
+      throw ScenarioError(fmt::format("{} is given twice; each key may appear once in an object",
+                                      MemberPath(path, *repeated)));
+    }
+  }
+}
+
 rapidjson::Document ParseJson(std::string_view json) {
   rapidjson::Document document;
   // iterative: deep nesting cannot overflow the stack
   constexpr unsigned kFlags = rapidjson::kParseFullPrecisionFlag | rapidjson::kParseIterativeFlag;
   document.Parse<kFlags>(json.data(), json.size());
   if (document.HasParseError()) {
-    throw ScenarioError(fmt::format("invalid JSON at {}: {}", LineAndColumn(json, document.GetErrorOffset()),
-                                    rapidjson::GetParseError_En(document.GetParseError())));
+    const rapidjson::ParseResult error = document;
+    throw ScenarioError(DescribeParseError(json, error));
   }
+  RefuseRepeatedKeys(document);
   return document;
 }
 

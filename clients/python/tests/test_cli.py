@@ -87,7 +87,7 @@ def test_a_bad_scene_file_exits_2_before_connecting(tmp_path, capsys, closed_por
     )
     code, err = run(["scene", "load", str(path), "--server", closed_port], capsys)
     assert code == 2
-    assert "scene.objects[0]: radius is -1.0; it must be a finite number > 0" in err
+    assert "scene.objects[0]: radius is -1.0; it must be in (0, 1000] m" in err
 
 
 def test_a_missing_mesh_file_exits_2(capsys, closed_port):

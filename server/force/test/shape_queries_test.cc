@@ -9,7 +9,9 @@
 #include <limits>
 #include <memory>
 #include <random>
+#include <vector>
 
+#include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/mesh_generators.h"
 #include "server/geometry/sphere_sweep.h"
 
@@ -79,6 +81,51 @@ TEST(ProbeShape, ClosedMeshSignAndDeepInside) {
   EXPECT_LT(centre.signed_distance, -0.9);
 }
 
+// An open mesh is a surface: from either side the distance is the unsigned distance
+// (an independent brute force over its triangles), never inside, with the normal from
+// the surface towards the point.
+TEST(ProbeShape, AnOpenMeshIsASurfaceWithNoInside) {
+  const TriangleMesh sphere = geometry::MakeIcosphere(4, 1.0);
+  std::vector<TriangleMesh::TriangleIndices> upper;
+  for (int t = 0; t < sphere.num_triangles(); ++t) {
+    const geometry::Triangle tri = sphere.triangle(t);
+    if (tri.v0.z() + tri.v1.z() + tri.v2.z() > 0) upper.push_back(sphere.triangles()[t]);
+  }
+  const auto bowl = std::make_shared<const TriangleMesh>(sphere.vertices(), upper);
+  ASSERT_FALSE(bowl->is_closed());
+  const scene::MeshShape shape{std::make_shared<const MeshBvh>(bowl)};
+  std::mt19937_64 random(8);
+  std::uniform_real_distribution<double> coordinate(-1.5, 1.5);
+  for (int i = 0; i < 500; ++i) {
+    const Vector3 p(coordinate(random), coordinate(random), coordinate(random));
+    double nearest = kInf;
+    for (int t = 0; t < bowl->num_triangles(); ++t) {
+      nearest = std::min(nearest, std::sqrt(geometry::FindClosestPointOnTriangle(p, bowl->triangle(t)).distance_squared));
+    }
+    const ShapeProbe probe = ProbeShape(shape, p, kInf);
+    ASSERT_TRUE(probe.found) << i;
+    EXPECT_NEAR(probe.signed_distance, nearest, 1e-12) << i;
+    EXPECT_NEAR((probe.normal_B - (p - probe.point_B).normalized()).norm(), 0, 1e-9) << i;
+  }
+  // inside the bowl, just under its top: 0.1 m from the surface, not inside it
+  EXPECT_NEAR(ProbeShape(shape, Vector3(0, 0, 0.89), kInf).signed_distance, 0.1, 0.01);
+}
+
+// A closed mesh given inside out has its inside back (it was the outside before
+// validation rewound it): 2 cm inside the tetrahedron is -2 cm, on every backend.
+TEST(ProbeShape, AnInsideOutTetrahedronHasItsInside) {
+  const std::vector<Vector3> vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  const auto tetra = std::make_shared<const TriangleMesh>(
+      vertices, std::vector<TriangleMesh::TriangleIndices>{{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}});
+  ASSERT_EQ(tetra->num_rewound_triangles(), 4);
+  const scene::MeshShape shape{std::make_shared<const MeshBvh>(tetra)};
+  const ShapeProbe inside = ProbeShape(shape, Vector3(0.02, 0.3, 0.3), kInf);
+  ASSERT_TRUE(inside.found);
+  EXPECT_NEAR(inside.signed_distance, -0.02, 1e-15);
+  EXPECT_EQ(inside.normal_B, Vector3(-1, 0, 0));
+  EXPECT_NEAR(ProbeShape(shape, Vector3(-0.02, 0.3, 0.3), kInf).signed_distance, 0.02, 1e-15);
+}
+
 TEST(ProbeShape, NonFiniteInputFindsNothing) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(ProbeShape(scene::BoxShape{Vector3::Ones()}, Vector3(nan, 0, 0), kInf).found);
@@ -116,8 +163,9 @@ TEST(SweepSphereShape, SphereMatchesTheAnalyticRoot) {
   EXPECT_GT(hits, 500);
 }
 
-// A sphere that starts touching the primitive (within the sweep tolerance) or inside it
-// is stopped at once only by motion into it; from its centre, +z is outward.
+// A sphere that starts touching the primitive (within the sweep tolerance) is stopped
+// at once only by motion into it; a point from inside leaves it where the segment
+// crosses the surface (the ray rule), with the normal turned back inwards.
 TEST(SweepSphereShape, SphereStartingInContactOnlyMotionIntoItHits) {
   const scene::Shape ball = scene::SphereShape{1};
   const Vector3 on_top(0, 0, 1.25);  // r = 0.25: touching
@@ -129,10 +177,23 @@ TEST(SweepSphereShape, SphereStartingInContactOnlyMotionIntoItHits) {
   EXPECT_EQ(into.point_B, Vector3(0, 0, 1));
   EXPECT_EQ(into.normal_B, Vector3::UnitZ());
   const Vector3 inside(0, 0.5, 0);
-  EXPECT_FALSE(SweepSphereShape(ball, inside, Vector3(0, 3, 0), 0).hit);
-  EXPECT_TRUE(SweepSphereShape(ball, inside, Vector3(0, 0.25, 0), 0).hit);
-  EXPECT_TRUE(SweepSphereShape(ball, Vector3::Zero(), Vector3(0, 0, -1), 0).hit);
-  EXPECT_FALSE(SweepSphereShape(ball, Vector3::Zero(), Vector3(0, 0, 1), 0).hit);
+  const ShapeSweep out = SweepSphereShape(ball, inside, Vector3(0, 3, 0), 0);
+  ASSERT_TRUE(out.hit);
+  EXPECT_NEAR(out.t, 0.2, 1e-10);  // leaves at y = 1 (within the 1e-10 m touching tolerance)
+  EXPECT_NEAR((out.point_B - Vector3(0, 1, 0)).norm(), 0, 1e-9);
+  EXPECT_NEAR((out.normal_B - Vector3(0, -1, 0)).norm(), 0, 1e-9);
+  // ending inside: never leaves
+  EXPECT_FALSE(SweepSphereShape(ball, inside, Vector3(0, 0.25, 0), 0).hit);
+  EXPECT_FALSE(SweepSphereShape(ball, Vector3::Zero(), Vector3(0, 0, -0.5), 0).hit);
+  // ending exactly on the surface: leaves at t = 1
+  const ShapeSweep to_surface = SweepSphereShape(ball, Vector3::Zero(), Vector3(0, 0, 1), 0);
+  ASSERT_TRUE(to_surface.hit);
+  EXPECT_NEAR(to_surface.t, 1, 1e-9);
+  // from the surface: into the ball at once, out of it never
+  const ShapeSweep from_surface = SweepSphereShape(ball, Vector3(0, 0, 1), Vector3(0, 0, -3), 0);
+  ASSERT_TRUE(from_surface.hit);
+  EXPECT_EQ(from_surface.t, 0);
+  EXPECT_FALSE(SweepSphereShape(ball, Vector3(0, 0, 1), Vector3(0, 0, 3), 0).hit);
   // passing by 1e-6 beyond reach, and ending 1e-6 short of it: misses
   EXPECT_FALSE(SweepSphereShape(ball, Vector3(-2, 1.25 + 1e-6, 0), Vector3(2, 1.25 + 1e-6, 0), 0.25).hit);
   EXPECT_FALSE(SweepSphereShape(ball, Vector3(0, 3, 0), Vector3(0, 1.25 + 1e-6, 0), 0.25).hit);

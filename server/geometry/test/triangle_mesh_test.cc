@@ -2,9 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -167,20 +170,128 @@ TEST(TriangleMesh, MissingTriangleMakesItOpen) {
   EXPECT_FALSE(TriangleMesh(kTetraVertices, triangles).is_closed());
 }
 
-TEST(TriangleMesh, InconsistentOrientationIsNotClosed) {
+TEST(TriangleMesh, InconsistentOrientationIsRewound) {
   // every edge still has two triangles, but one triangle runs its edges the same way
-  // as its neighbours
+  // as its neighbours: it alone is turned back
   auto triangles = kTetraTriangles;
   std::swap(triangles[2][1], triangles[2][2]);
-  EXPECT_FALSE(TriangleMesh(kTetraVertices, triangles).is_closed());
+  const TriangleMesh mesh(kTetraVertices, triangles);
+  EXPECT_TRUE(mesh.is_closed());
+  EXPECT_EQ(mesh.closure(), MeshClosure::kClosed);
+  EXPECT_EQ(mesh.num_rewound_triangles(), 1);
+  EXPECT_EQ(mesh.triangles(), kTetraTriangles);
+  EXPECT_DOUBLE_EQ(mesh.signed_volume(), 1.0 / 6);
+  EXPECT_EQ(mesh.face_normal(2), Vector3(-1, 0, 0));
 }
 
-TEST(TriangleMesh, ReversedWindingIsClosedWithNegativeVolume) {
+TEST(TriangleMesh, InsideOutIsRewoundOutwards) {
   auto triangles = kTetraTriangles;
   for (Indices& t : triangles) std::swap(t[1], t[2]);
   const TriangleMesh mesh(kTetraVertices, triangles);
   EXPECT_TRUE(mesh.is_closed());
-  EXPECT_DOUBLE_EQ(mesh.signed_volume(), -1.0 / 6);
+  EXPECT_EQ(mesh.num_rewound_triangles(), 4);
+  EXPECT_EQ(mesh.triangles(), kTetraTriangles);
+  EXPECT_DOUBLE_EQ(mesh.signed_volume(), 1.0 / 6);
+  EXPECT_EQ(mesh.face_normal(0), Vector3(0, 0, -1));
+  // the pseudo-normals follow: the corner at the origin looks away from the solid
+  EXPECT_LT(mesh.vertex_pseudo_normal(0).dot(Vector3::Ones()), 0);
+}
+
+TEST(TriangleMesh, OpenMeshesAreKeptAsGiven) {
+  auto triangles = kTetraTriangles;
+  triangles.pop_back();
+  std::swap(triangles[0][1], triangles[0][2]);
+  const TriangleMesh mesh(kTetraVertices, triangles);
+  EXPECT_EQ(mesh.closure(), MeshClosure::kOpen);
+  EXPECT_EQ(mesh.num_rewound_triangles(), 0);
+  EXPECT_EQ(mesh.triangles(), triangles);
+}
+
+// The 6-vertex real projective plane (the hemi-icosahedron): every edge has two
+// triangles, but no winding agrees across all of them.
+TEST(TriangleMesh, ProjectivePlaneIsNonOrientable) {
+  const std::vector<Vector3> vertices = {{0, 0, 1.1}, {1, 0.1, 0}, {0.3, 1, 0.2},
+                                         {-1, 0.2, -0.1}, {0.1, -1, 0.3}, {0.2, 0.3, -1}};
+  const std::vector<Indices> triangles = {{0, 1, 2}, {0, 2, 3}, {0, 3, 4}, {0, 4, 5}, {0, 5, 1},
+                                          {1, 2, 4}, {2, 3, 5}, {3, 4, 1}, {4, 5, 2}, {5, 1, 3}};
+  const TriangleMesh mesh(vertices, triangles);
+  EXPECT_EQ(mesh.closure(), MeshClosure::kNonOrientable);
+  EXPECT_FALSE(mesh.is_closed());
+  EXPECT_EQ(mesh.num_rewound_triangles(), 0);
+  EXPECT_EQ(mesh.triangles(), triangles);
+  EXPECT_EQ(MeshClosureName(mesh.closure()), "non-orientable");
+}
+
+// Two meshes in one: the triangles of b after those of a, b's indices shifted.
+TriangleMesh Merge(const TriangleMesh& a, const TriangleMesh& b, bool reverse_a, bool reverse_b) {
+  std::vector<Vector3> vertices = a.vertices();
+  vertices.insert(vertices.end(), b.vertices().begin(), b.vertices().end());
+  std::vector<Indices> triangles;
+  for (Indices t : a.triangles()) {
+    if (reverse_a) std::swap(t[1], t[2]);
+    triangles.push_back(t);
+  }
+  for (Indices t : b.triangles()) {
+    for (int& v : t) v += a.num_vertices();
+    if (reverse_b) std::swap(t[1], t[2]);
+    triangles.push_back(t);
+  }
+  return TriangleMesh(vertices, triangles);
+}
+
+// A shell inside another bounds a cavity: its normals must point into the cavity, away
+// from the solid between the shells, whatever winding either shell was given.
+TEST(TriangleMesh, ANestedShellIsACavity) {
+  const TriangleMesh outer = MakeIcosphere(4, 1.0);
+  const TriangleMesh inner = MakeIcosphere(3, 0.5);
+  const double hollow = outer.signed_volume() - inner.signed_volume();
+  for (bool reverse_outer : {false, true}) {
+    for (bool reverse_inner : {false, true}) {
+      const TriangleMesh mesh = Merge(outer, inner, reverse_outer, reverse_inner);
+      EXPECT_TRUE(mesh.is_closed());
+      // the inner shell comes out inward: reversed from the generator's winding
+      const int expected = (reverse_outer ? outer.num_triangles() : 0) +
+                           (reverse_inner ? 0 : inner.num_triangles());
+      EXPECT_EQ(mesh.num_rewound_triangles(), expected) << reverse_outer << reverse_inner;
+      EXPECT_NEAR(mesh.signed_volume(), hollow, 1e-12) << reverse_outer << reverse_inner;
+    }
+  }
+  // side by side, each shell bounds its own body
+  TriangleMesh apart_inner = MakeIcosphere(3, 0.5);
+  std::vector<Vector3> moved = apart_inner.vertices();
+  for (Vector3& v : moved) v.x() += 3;
+  const TriangleMesh beside = Merge(outer, TriangleMesh(moved, apart_inner.triangles()), false, true);
+  EXPECT_EQ(beside.num_rewound_triangles(), inner.num_triangles());
+  EXPECT_NEAR(beside.signed_volume(), outer.signed_volume() + inner.signed_volume(), 1e-12);
+}
+
+// Against the generator's outward winding as oracle: closed meshes with random
+// triangles flipped (and a random rigid placement) come back wound exactly as
+// generated.
+TEST(TriangleMesh, RandomlyFlippedClosedMeshesComeBackOutward) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  std::bernoulli_distribution coin(0.3);
+  const std::vector<TriangleMesh> shapes = {MakeIcosphere(3, 0.7), MakeTorus(1.0, 0.3, 16, 8),
+                                            MakeBoxMesh({0.5, 1, 2}, 3)};
+  for (int trial = 0; trial < 60; ++trial) {
+    const TriangleMesh& shape = shapes[trial % shapes.size()];
+    const Eigen::Matrix3d R =
+        Eigen::Quaterniond(unit(rng), unit(rng), unit(rng), unit(rng)).normalized().toRotationMatrix();
+    const Vector3 offset(unit(rng), unit(rng), unit(rng));
+    std::vector<Vector3> vertices;
+    for (const Vector3& v : shape.vertices()) vertices.push_back(R * v + 5 * offset);
+    std::vector<Indices> triangles = shape.triangles();
+    int flipped = 0;
+    for (Indices& t : triangles) {
+      if (coin(rng)) std::swap(t[1], t[2]), ++flipped;
+    }
+    const TriangleMesh mesh(vertices, triangles);
+    ASSERT_TRUE(mesh.is_closed()) << trial;
+    EXPECT_EQ(mesh.num_rewound_triangles(), flipped) << trial;
+    EXPECT_EQ(mesh.triangles(), shape.triangles()) << trial;
+    EXPECT_GT(mesh.signed_volume(), 0) << trial;
+  }
 }
 
 TEST(TriangleMesh, EdgeSharedByThreeTrianglesIsNotClosed) {

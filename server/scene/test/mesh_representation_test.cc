@@ -18,6 +18,7 @@
 #include "server/geometry/mesh_generators.h"
 #include "server/geometry/mesh_queries.h"
 #include "server/geometry/test/random_geometry.h"
+#include "server/scene/value_text.h"
 
 namespace hapticd::scene {
 namespace {
@@ -414,12 +415,18 @@ TEST(MeshRepresentation, OpenMeshStaysAMesh) {
   const RepresentedMesh r = ChooseMeshRepresentation(mesh, 0.5);
   EXPECT_EQ(r.choice.chosen, Representation::kMesh) << r.choice.reason;
   EXPECT_NE(r.choice.reason.find("the mesh is open"), std::string::npos) << r.choice.reason;
-  // pinned anyway: built, with no proven bound
-  const RepresentedMesh pinned = ChooseMeshRepresentation(mesh, 0.5, Representation::kSphere);
-  EXPECT_EQ(pinned.choice.chosen, Representation::kSphere);
-  EXPECT_EQ(pinned.choice.error_bound, kInf);
-  EXPECT_NE(pinned.choice.reason.find("unproven: the mesh is open"), std::string::npos)
-      << pinned.choice.reason;
+  EXPECT_EQ(r.choice.closure, geometry::MeshClosure::kOpen);
+  ASSERT_EQ(r.choice.warnings.size(), 1u);
+  EXPECT_EQ(r.choice.warnings[0],
+            "the mesh is open (an edge has one triangle or more than two): it is a surface with no inside; "
+            "distances to it are unsigned and nothing is inside it");
+  // pinned as a primitive: no bound is proven, so the pin is refused naming it
+  EXPECT_EQ(PinError(mesh, Representation::kSphere),
+            "cannot represent the mesh as a sphere: its distance from the mesh has no finite bound (sphere "
+            "(mesh within 0.00391 m of it) unproven: the mesh is open, so it need not cover the shape)");
+  // its hull has a bound from the hull's faces, finite: accepted
+  const RepresentedMesh as_hull = ChooseMeshRepresentation(mesh, 0.5, Representation::kConvex);
+  EXPECT_TRUE(std::isfinite(as_hull.choice.error_bound));
 }
 
 TEST(MeshRepresentation, PinsAreHonoured) {
@@ -431,12 +438,47 @@ TEST(MeshRepresentation, PinsAreHonoured) {
   const RepresentedMesh as_box = ChooseMeshRepresentation(sphere, 1e-9, Representation::kBox);
   EXPECT_EQ(as_box.choice.chosen, Representation::kBox);
   EXPECT_GT(as_box.choice.error_bound, 0.1);
-  // a torus as its hull: built, but nothing covers the hole, so no bound is proven
+  // a torus as its hull: nothing covers the hole, so the bound comes from the hull's
+  // faces reaching back to their corners (mesh vertices): finite, at least the true
+  // distance from the hull's top over the hole's centre down to the tube (0.744 m)
   const auto torus = Share(geometry::MakeTorus(1.0, 0.3, 24, 12));
   const RepresentedMesh as_hull = ChooseMeshRepresentation(torus, 1e-3, Representation::kConvex);
   EXPECT_EQ(as_hull.choice.chosen, Representation::kConvex);
-  EXPECT_EQ(as_hull.choice.error_bound, kInf);
-  EXPECT_NE(as_hull.choice.reason.find("pinned: hull"), std::string::npos) << as_hull.choice.reason;
+  EXPECT_GE(as_hull.choice.error_bound, std::hypot(1.0, 0.3) - 0.3);
+  EXPECT_LE(as_hull.choice.error_bound, 1.3);
+  EXPECT_NE(as_hull.choice.reason.find("bounded by its faces' corners"), std::string::npos) << as_hull.choice.reason;
+}
+
+// A pin whose bound exceeds the tolerance is kept (the user chose it) with a warning
+// naming both numbers; one within it has no warning; the torus pinned as a sphere (not
+// star-shaped around its centre) has no finite bound and is refused.
+TEST(MeshRepresentation, PinsBeyondTheToleranceAreWarnedAbout) {
+  const auto sphere = Share(geometry::MakeIcosphere(8, 1.0));
+  const RepresentedMesh as_box = ChooseMeshRepresentation(sphere, 1e-4, Representation::kBox);
+  ASSERT_EQ(as_box.choice.warnings.size(), 1u);
+  EXPECT_EQ(as_box.choice.warnings[0], "the pinned box is within " + FormatShort(as_box.choice.error_bound) +
+                                           " m of the mesh, beyond the scene's tolerance 0.0001 m");
+  const RepresentedMesh within = ChooseMeshRepresentation(sphere, 10, Representation::kBox);
+  EXPECT_TRUE(within.choice.warnings.empty());
+  EXPECT_TRUE(ChooseMeshRepresentation(sphere, 1e-4, Representation::kMesh).choice.warnings.empty());
+  const auto torus = Share(geometry::MakeTorus(1.0, 0.3, 24, 12));
+  EXPECT_NE(PinError(torus, Representation::kSphere).find("cannot represent the mesh as a sphere: its distance "
+                                                          "from the mesh has no finite bound"),
+            std::string::npos);
+}
+
+// An inside-out tetrahedron is rewound at validation: the choice says so, and its
+// representation is the outward tetrahedron's.
+TEST(MeshRepresentation, RewoundMeshesAreReported) {
+  const std::vector<Vector3> vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  const auto inside_out = Share(TriangleMesh(vertices, {{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}}));
+  const RepresentedMesh r = ChooseMeshRepresentation(inside_out, 1e-4);
+  EXPECT_EQ(r.choice.chosen, Representation::kMesh);
+  EXPECT_EQ(r.choice.closure, geometry::MeshClosure::kClosed);
+  EXPECT_EQ(r.choice.rewound_triangles, 4);
+  ASSERT_EQ(r.choice.warnings.size(), 1u);
+  EXPECT_EQ(r.choice.warnings[0], "rewound 4 of 4 triangles so that the mesh's normals point out of its solid");
+  EXPECT_GT(std::get<MeshShape>(r.shape).bvh->mesh().signed_volume(), 0);
 }
 
 TEST(MeshRepresentation, ImpossiblePinsAndBadArgumentsThrowNamingTheProblem) {
@@ -449,7 +491,9 @@ TEST(MeshRepresentation, ImpossiblePinsAndBadArgumentsThrowNamingTheProblem) {
   EXPECT_EQ(PinError(square, Representation::kBox),
             "cannot represent the mesh as a box: the mesh is flat along a box axis (half extents "
             "[0.5, 0.5, 0])");
-  EXPECT_EQ(PinError(square, Representation::kSphere), "");
+  EXPECT_EQ(PinError(square, Representation::kSphere),
+            "cannot represent the mesh as a sphere: its distance from the mesh has no finite bound (sphere "
+            "(mesh within 0.354 m of it) unproven: the mesh is open, so it need not cover the shape)");
   EXPECT_EQ(ChooseMeshRepresentation(square, 1.0).choice.chosen, Representation::kMesh);
   EXPECT_EQ(PinError(square, static_cast<Representation>(17)), "representation 17 does not exist");
   for (double tolerance : {0.0, -1.0, std::nan(""), kInf}) {

@@ -174,11 +174,81 @@ TEST(ParseScenario, SyntaxErrorsAndMissingFields) {
     return std::string("no error");
   };
   EXPECT_EQ(error_of("{\n  \"rate_hz\": 1000,\n  \"duration_s\" 2\n}"),
-            "invalid JSON at line 3, column 16: Missing a colon after a name of object member.");
+            "invalid JSON at line 3, column 16, in the value of duration_s: Missing a colon after a name of "
+            "object member.");
   EXPECT_EQ(error_of("[]"), "the scenario is an array; it must be an object");
   EXPECT_EQ(error_of("{\"rate_hz\": 1000}"), "duration_s is missing; it is required");
   EXPECT_EQ(ErrorWith({"hand={\"mass\": 1, \"stiffness\": 1, \"damping\": 1}"}), "hand.path is missing; it is required");
   EXPECT_EQ(ErrorWith({"avatar.type=sphere"}), "avatar.radius is missing; it is required");
+}
+
+// A key given twice in one object is refused by its path (the reader would see only
+// the first), at any depth, before any field is read; in different objects it is fine.
+TEST(ParseScenario, RepeatedKeysAreRefusedByName) {
+  auto error_of = [](std::string_view json) {
+    try {
+      ParseSceneFile(json, ".");
+    } catch (const ScenarioError& error) {
+      return std::string(error.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(error_of(R"({"scene": {"objects": [{"name": "s", "shape": {"type": "sphere", "radius": 0.1,
+                "radius": -1}, "position": [0, 0, 0], "material": {"stiffness": 1}}]}})"),
+            "scene.objects[0].shape.radius is given twice; each key may appear once in an object");
+  EXPECT_EQ(error_of(R"({"scene": {"objects": []}, "scene": {"objects": []}})"),
+            "scene is given twice; each key may appear once in an object");
+  EXPECT_EQ(error_of(R"({"scene": {"objects": [{"name": "a", "shape": {"type": "plane"}, "position": [0, 0, 0],
+                "material": {"stiffness": 1}}, {"name": "b", "shape": {"type": "plane"}, "position": [0, 0, 1],
+                "material": {"stiffness": 1, "damping": 1, "damping": 2}}]}})"),
+            "scene.objects[1].material.damping is given twice; each key may appear once in an object");
+  EXPECT_EQ(error_of(R"({"scene": {"objects": [{"name": "a", "shape": {"type": "plane"}, "position": [0, 0, 0],
+                "material": {"stiffness": 1}}, {"name": "b", "shape": {"type": "plane"}, "position": [0, 0, 1],
+                "material": {"stiffness": 1}}]}})"),
+            "no error");
+  // deep nesting neither overflows nor hides a repeat
+  std::string deep = R"({"scene": {"objects": []}, "x": )";
+  for (int i = 0; i < 100000; ++i) deep += "[";
+  deep += R"({"k": 1, "k": 2})";
+  for (int i = 0; i < 100000; ++i) deep += "]";
+  deep += "}";
+  const std::string deep_error = error_of(deep);
+  EXPECT_TRUE(deep_error.starts_with("x[0][0][0]")) << deep_error.substr(0, 80);
+  EXPECT_TRUE(deep_error.ends_with("[0].k is given twice; each key may appear once in an object"));
+}
+
+// A syntax error names the field whose value it is in, and says why a NaN or an
+// infinity is not a number.
+TEST(ParseScenario, SyntaxErrorsNameTheField) {
+  auto error_of = [](std::string_view json) {
+    try {
+      ParseSceneFile(json, ".");
+    } catch (const ScenarioError& error) {
+      return std::string(error.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(error_of(R"({"scene": {"objects": [{"name": "s", "shape": {"type": "sphere", "radius": NaN}}]}})"),
+            "invalid JSON at line 1, column 76, in the value of scene.objects[0].shape.radius: Invalid value. "
+            "(NaN and Infinity are not JSON numbers; every number must be finite)");
+  EXPECT_EQ(error_of(R"({"scene": {"objects": [{"name": "s", "position": [0, -Infinity, 0]}]}})"),
+            "invalid JSON at line 1, column 55, in the value of scene.objects[0].position[1]: Invalid value. "
+            "(NaN and Infinity are not JSON numbers; every number must be finite)");
+  EXPECT_EQ(error_of(R"({"scene": {"tolerance": 1e400, "objects": []}})"),
+            "invalid JSON at line 1, column 25, in the value of scene.tolerance: Number too big to be stored in "
+            "double.");
+  EXPECT_EQ(error_of(R"({"scene": {"objects": [1, 2,]}})"),
+            "invalid JSON at line 1, column 29, in the value of scene.objects[2]: Invalid value.");
+  EXPECT_EQ(error_of(R"({"scene": {"objects": [], }})"),
+            "invalid JSON at line 1, column 27, in scene: Missing a name for object member.");
+}
+
+// ray_backend, like representation, is for meshes only.
+TEST(ParseScenario, RayBackendOffAMeshIsRefused) {
+  EXPECT_EQ(ErrorWith({"scene.objects.0.ray_backend=embree"}),
+            "scene.objects[0].ray_backend is only for mesh shapes; this shape is a box");
+  EXPECT_EQ(ErrorWith({"scene.objects.0.representation=box"}),
+            "scene.objects[0].representation is only for mesh shapes; this shape is a box");
 }
 
 TEST(ParseScenario, MeshesInlineFromFilesAndExtensions) {

@@ -207,6 +207,10 @@ def scene_from(message: pb.SceneDescription) -> SceneInfo:
             kinematic=info.kinematic,
             triangles=info.triangles,
             ray_backend=info.ray_backend,
+            closed=info.closed,
+            topology=info.topology,
+            rewound_triangles=info.rewound_triangles,
+            warnings=tuple(info.warnings),
         )
         for info in message.objects
     ]

@@ -6,6 +6,7 @@ its bad value, e.g. "radius is -0.5; it must be a finite number > 0".
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -18,6 +19,65 @@ IndexArray = NDArray[np.uint32]
 
 # How far from unit a quaternion or orthonormal a rotation matrix may be, and be accepted.
 ROTATION_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True)
+class Range:
+    """The documented range of one quantity: from low to high, each end closed unless
+    marked open, in unit."""
+
+    low: float
+    high: float
+    unit: str = ""
+    low_open: bool = False
+    high_open: bool = False
+
+    def __contains__(self, value: float) -> bool:
+        above = value > self.low if self.low_open else value >= self.low
+        below = value < self.high if self.high_open else value <= self.high
+        return above and below
+
+    def __str__(self) -> str:
+        text = (
+            f"{'(' if self.low_open else '['}{_bound(self.low)}, "
+            f"{_bound(self.high)}{')' if self.high_open else ']'}"
+        )
+        return f"{text} {self.unit}" if self.unit else text
+
+
+def _bound(x: float) -> str:
+    """A range's end as its documentation writes it: 10000, 0.001, 1e+07, inf."""
+    return f"{x:g}"
+
+
+# The server's documented ranges, the one table every check here reads (the server
+# refuses the same values, naming the same field).
+RANGES: dict[str, Range] = {
+    # OpenSession: SessionLimits, server/force/session_settings.h
+    "rate_hz": Range(10, 10_000, "Hz"),
+    "max_force": Range(0, 1e4, "N", low_open=True),
+    "max_velocity": Range(0, 100, "m/s", low_open=True),
+    "avatar_radius": Range(0, 1, "m", low_open=True),  # a sphere avatar's; a point's is 0
+    "virtual_mass": Range(1e-3, 1e3, "kg"),  # 0 on the wire: the server's 1 kg
+    "virtual_damping": Range(0, 1e5, "N·s/m"),  # 0 on the wire: the server's 20 N·s/m
+    "max_force_rate": Range(0, math.inf, "N/s", high_open=True),  # 0: no limit
+    # OpenSession.timeout_s (0: the server's 2 s): after the watchdog's 0.05 s timeout
+    # and 0.1 s ramp, within an hour (server/net/proto_convert.cc)
+    "session_timeout_s": Range(0.15, 3600, "s"),
+    # Scene objects: SceneLimits, server/scene/scene_limits.h
+    "coordinate": Range(-1e4, 1e4, "m"),  # positions, vertices, hull points
+    "size": Range(0, 1e3, "m", low_open=True),  # radii, half extents
+    "half_length": Range(0, 1e3, "m"),
+    "stiffness": Range(0, 1e7, "N/m", low_open=True),
+    "damping": Range(0, 1e5, "N·s/m"),
+    "friction": Range(0, 10),
+    "speed": Range(0, 100, "m/s"),  # a kinematic object's velocity, its norm
+    "angular_speed": Range(0, 1e3, "rad/s"),  # its angular velocity, the norm
+    # Subscribe.rate_hz: server/net/control_service.cc
+    "subscribe_rate_hz": Range(0.1, 1000, "Hz"),
+}
+# SceneBudgets::max_name_bytes, server/scene/scene_limits.h (a deployment's default).
+MAX_NAME_BYTES = 128
 
 
 def _shown(value: Any) -> str:
@@ -67,6 +127,49 @@ def in_range(value: Any, name: str, low: float, high: float) -> float:
     if not low <= result <= high:
         raise LocalError(f"{name} is {result!r}; it must be in [{low!r}, {high!r}]")
     return result
+
+
+def limited(value: Any, name: str, quantity: str) -> float:
+    """value as a finite float within RANGES[quantity]: "max_force is 0.0; it must be in
+    (0, 10000] N"."""
+    result = number(value, name)
+    allowed = RANGES[quantity]
+    if result not in allowed:
+        raise LocalError(f"{name} is {result!r}; it must be in {allowed}")
+    return result
+
+
+def limited_or_zero(value: Any, name: str, quantity: str, zero_means: str) -> float:
+    """limited(), except that 0 is also accepted: it asks for the server's default,
+    which zero_means names in the message."""
+    result = number(value, name)
+    allowed = RANGES[quantity]
+    if result != 0 and result not in allowed:
+        raise LocalError(f"{name} is {result!r}; it must be in {allowed}, or 0 for {zero_means}")
+    return result
+
+
+def coordinates(array: FloatArray, name: str) -> FloatArray:
+    """array (finite, any shape, the last axis x, y, z) with every coordinate within
+    RANGES["coordinate"]: "vertices[4] is [...]; each coordinate must be in [-10000,
+    10000] m"."""
+    allowed = RANGES["coordinate"]
+    outside = (array < allowed.low) | (array > allowed.high)
+    if np.any(outside):
+        bad = np.argwhere(outside)[0]
+        where = "".join(f"[{i}]" for i in bad[:-1])
+        row = array[tuple(bad[:-1])] if array.ndim > 1 else array
+        raise LocalError(f"{name}{where} is {_shown(row)}; each coordinate must be in {allowed}")
+    return array
+
+
+def norm_limited(vector: FloatArray, name: str, quantity: str) -> FloatArray:
+    """vector (finite) whose length is within RANGES[quantity]."""
+    length = float(np.linalg.norm(vector))
+    allowed = RANGES[quantity]
+    if length not in allowed:
+        raise LocalError(f"{name} is {_shown(vector)}; its norm {length!r} must be in {allowed}")
+    return vector
 
 
 def as_floats(value: ArrayLike, name: str) -> FloatArray:
@@ -226,7 +329,19 @@ def choice(value: str, name: str, allowed: tuple[str, ...]) -> str:
 
 
 def object_name(value: Any, name: str = "name") -> str:
-    """A non-empty object name."""
+    """A non-empty object name of at most MAX_NAME_BYTES bytes (UTF-8), without control
+    characters (the server echoes names in errors and logs)."""
     if not isinstance(value, str) or not value:
         raise LocalError(f"{name} is {value!r}; it must be a non-empty string")
+    size = len(value.encode("utf-8", errors="surrogatepass"))
+    if size > MAX_NAME_BYTES:
+        raise LocalError(
+            f"{name} is {value[:32]!r}... ({size} bytes); it must be at most {MAX_NAME_BYTES} bytes"
+        )
+    control = next((c for c in value if ord(c) < 0x20 or ord(c) == 0x7F), None)
+    if control is not None:
+        raise LocalError(
+            f"{name} is {value!r}; it has the control character {ord(control)} "
+            "(names must be printable)"
+        )
     return value

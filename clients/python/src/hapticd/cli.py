@@ -209,6 +209,10 @@ def _object_json(info: ObjectInfo) -> dict[str, Any]:
         },
         "kinematic": info.kinematic,
         "triangles": info.triangles,
+        "closed": info.closed,
+        "topology": info.topology,
+        "rewound_triangles": info.rewound_triangles,
+        "warnings": list(info.warnings),
     }
 
 

@@ -67,8 +67,6 @@ FORCE_METHODS = {
     "god_object": pb.FORCE_METHOD_GOD_OBJECT,
     "finger_proxy": pb.FORCE_METHOD_FINGER_PROXY,
 }
-MAX_RATE_HZ = 10_000.0
-MAX_TELEMETRY_RATE_HZ = 1_000.0
 # How many closed session ids a client remembers, so that closing one twice is quiet.
 CLOSED_SESSIONS_REMEMBERED = 1024
 
@@ -93,6 +91,11 @@ class Placement(TypedDict, total=False):
 
 
 PLACEMENT_KEYWORDS = tuple(Placement.__annotations__)
+
+
+def _check_position(value: ArrayLike) -> check.FloatArray:
+    """A position to send: finite, shape (3,), each coordinate within the server's range."""
+    return check.coordinates(check.vector3(value, "position"), "position")
 
 
 def _check_keywords(call: str, given: Mapping[str, object], own: tuple[str, ...] = ()) -> None:
@@ -360,9 +363,17 @@ class Client:
         rad/s); RemoteError if it is static."""
         message = pb.MoveKinematic(
             name=check.object_name(name),
-            pose=codec.pose_message(Pose.of(position, rotation)),
-            velocity=codec.vec3(check.vector3(velocity, "velocity")),
-            angular_velocity=codec.vec3(check.vector3(angular_velocity, "angular_velocity")),
+            pose=codec.pose_message(Pose.of(_check_position(position), rotation)),
+            velocity=codec.vec3(
+                check.norm_limited(check.vector3(velocity, "velocity"), "velocity", "speed")
+            ),
+            angular_velocity=codec.vec3(
+                check.norm_limited(
+                    check.vector3(angular_velocity, "angular_velocity"),
+                    "angular_velocity",
+                    "angular_speed",
+                )
+            ),
         )
         return self._edit("move_kinematic", message, timeout_s)
 
@@ -386,7 +397,10 @@ class Client:
         timeout_s: float | None = None,
     ) -> RayHit:
         """The first surface the segment origin -> origin + max_distance * direction hits
-        (direction non-zero, normalised by the server; max_distance m, > 0)."""
+        (direction non-zero, normalised by the server; max_distance m, > 0): the first
+        surface crossing from either side, alike for every representation. From inside
+        a solid that is where the ray leaves it (normal turned back towards the origin);
+        from a surface, distance 0 when the ray goes into the solid."""
         message = pb.RayCast(
             origin=codec.vec3(check.vector3(origin, "origin")),
             direction=codec.vec3(check.nonzero_vector3(direction, "direction")),
@@ -470,40 +484,46 @@ class Client:
         timeout_s: float | None = None,
     ) -> SessionInfo:
         """Opens a device session (the capability handshake). device_type "impedance"
-        (position in, force out) or "admittance" (force in, pose out); max_force (N) and
-        max_velocity (m/s) the device's limits; rate_hz its state rate (<= 10 kHz);
-        max_force_rate N/s (0: none); avatar "point" or "sphere" (avatar_radius m > 0);
-        method "default", "penalty", "god_object" or "finger_proxy"; virtual_mass (kg)
-        and virtual_damping (N·s/m) for admittance (0: the server's 1 kg, 20 N·s/m);
-        start: the device's position now; session_timeout_s: reclaim after this long
-        without states (0: 2 s)."""
+        (position in, force out) or "admittance" (force in, pose out); max_force (N, in
+        (0, 1e4]) and max_velocity (m/s, in (0, 100]) the device's limits; rate_hz its
+        state rate (in [10, 10000]); max_force_rate N/s (0: none); avatar "point" or
+        "sphere" (avatar_radius m in (0, 1]); method "default", "penalty", "god_object"
+        or "finger_proxy"; virtual_mass (kg, in [1e-3, 1e3]) and virtual_damping (N·s/m,
+        in [0, 1e5]) for admittance (0: the server's 1 kg, 20 N·s/m); start: the
+        device's position now; session_timeout_s: reclaim after this long without states
+        (in [0.15, 3600]; 0: 2 s). The ranges are _validate.RANGES, the server's."""
         if degrees_of_freedom not in (3, 6):
             raise LocalError(f"degrees_of_freedom is {degrees_of_freedom!r}; it must be 3 or 6")
         check.choice(device_type, "device_type", tuple(DEVICE_TYPES))
         check.choice(avatar, "avatar", tuple(AVATARS))
         check.choice(method, "method", tuple(FORCE_METHODS))
-        radius = check.non_negative(avatar_radius, "avatar_radius")
-        if avatar == "sphere" and radius == 0:
-            raise LocalError("avatar_radius is 0.0; a sphere avatar needs a radius > 0")
-        rate = check.positive(rate_hz, "rate_hz")
-        if rate > MAX_RATE_HZ:
-            raise LocalError(f"rate_hz is {rate!r}; it must be <= {MAX_RATE_HZ!r}")
+        if avatar == "sphere":
+            radius = check.limited(avatar_radius, "avatar_radius", "avatar_radius")
+        else:
+            radius = check.number(avatar_radius, "avatar_radius")
+            if radius != 0:
+                raise LocalError(f"avatar_radius is {radius!r}; a point avatar has radius 0")
+        rate = check.limited(rate_hz, "rate_hz", "rate_hz")
         message = pb.OpenSession(
             device_type=DEVICE_TYPES[device_type],
             degrees_of_freedom=degrees_of_freedom,
-            max_force=check.positive(max_force, "max_force"),
-            max_velocity=check.positive(max_velocity, "max_velocity"),
+            max_force=check.limited(max_force, "max_force", "max_force"),
+            max_velocity=check.limited(max_velocity, "max_velocity", "max_velocity"),
             rate_hz=rate,
-            max_force_rate=check.non_negative(max_force_rate, "max_force_rate"),
+            max_force_rate=check.limited(max_force_rate, "max_force_rate", "max_force_rate"),
             avatar=AVATARS[avatar],
             avatar_radius=radius,
             method=FORCE_METHODS[method],
             force_shading=force_shading,
             passivity=passivity,
-            virtual_mass=check.non_negative(virtual_mass, "virtual_mass"),
-            virtual_damping=check.non_negative(virtual_damping, "virtual_damping"),
+            virtual_mass=check.limited_or_zero(
+                virtual_mass, "virtual_mass", "virtual_mass", "the server's 1 kg"
+            ),
+            virtual_damping=check.limited(virtual_damping, "virtual_damping", "virtual_damping"),
             start=codec.vec3(check.vector3(start, "start")),
-            timeout_s=check.non_negative(session_timeout_s, "session_timeout_s"),
+            timeout_s=check.limited_or_zero(
+                session_timeout_s, "session_timeout_s", "session_timeout_s", "the server's 2 s"
+            ),
         )
         opened = _body(
             self._call("open_session", message, timeout_s), "session_opened", pb.SessionOpened
@@ -576,13 +596,11 @@ class Client:
         *,
         timeout_s: float | None = None,
     ) -> Subscription:
-        """Starts telemetry at rate_hz (> 0, <= 1000) for session_ids (empty: every
+        """Starts telemetry at rate_hz (in [0.1, 1000]) for session_ids (empty: every
         session) and waits for the server's first sample (RemoteError if it refuses).
         Iterate the result for samples; each waits up to timeout_s (default: the
         client's timeout plus two sample periods)."""
-        rate = check.positive(rate_hz, "rate_hz")
-        if rate > MAX_TELEMETRY_RATE_HZ:
-            raise LocalError(f"rate_hz is {rate!r}; it must be <= {MAX_TELEMETRY_RATE_HZ!r}")
+        rate = check.limited(rate_hz, "rate_hz", "subscribe_rate_hz")
         wait_s = (
             self.timeout_s + 2 / rate
             if timeout_s is None

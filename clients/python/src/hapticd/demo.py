@@ -116,7 +116,7 @@ def run_demo(
     ticks in contact, packet counters, energy_j: the rendered force's net work). Fills
     trace when given."""
     seconds = check.positive(seconds, "seconds")
-    rate_hz = check.in_range(rate_hz, "rate_hz", 1.0, 10_000.0)
+    rate_hz = check.limited(rate_hz, "rate_hz", "rate_hz")
     hand = HandSpec(path=stroke_path(seconds), **DEMO_HAND)
     start = STROKE_CYCLE[0][1:]
     device = SimImpedanceDevice(hand, DeviceSpec(start=start, **DEMO_DEVICE), rate_hz)
@@ -167,7 +167,7 @@ def run_latency_bench(
     """Round trips of a still impedance device in free space for seconds at rate_hz;
     returns the percentiles (µs) and packet counters."""
     seconds = check.positive(seconds, "seconds")
-    rate_hz = check.in_range(rate_hz, "rate_hz", 1.0, 10_000.0)
+    rate_hz = check.limited(rate_hz, "rate_hz", "rate_hz")
     info = client.open_session("impedance", rate_hz=rate_hz, start=BENCH_POSITION)
     ticks = round(seconds * rate_hz)
     with DeviceSession(info) as session:

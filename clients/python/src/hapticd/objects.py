@@ -35,9 +35,9 @@ def _identity() -> FloatArray:
 
 @dataclass(frozen=True)
 class Material:
-    """How an object feels: stiffness (N/m, > 0), damping along the normal (N·s/m,
-    >= 0), static and dynamic friction coefficients (>= 0, dynamic <= static), and
-    force shading (None: the server's default, on)."""
+    """How an object feels: stiffness (N/m, in (0, 1e7]), damping along the normal
+    (N·s/m, in [0, 1e5]), static and dynamic friction coefficients (in [0, 10], dynamic
+    <= static), and force shading (None: the server's default, on)."""
 
     stiffness: float = DEFAULT_STIFFNESS
     damping: float = 0.0
@@ -46,10 +46,17 @@ class Material:
     force_shading: bool | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "stiffness", check.positive(self.stiffness, "material.stiffness"))
-        object.__setattr__(self, "damping", check.non_negative(self.damping, "material.damping"))
-        static = check.non_negative(self.static_friction, "material.static_friction")
-        dynamic = check.non_negative(self.dynamic_friction, "material.dynamic_friction")
+        checked = check_material_fields(
+            {
+                "stiffness": self.stiffness,
+                "damping": self.damping,
+                "static_friction": self.static_friction,
+                "dynamic_friction": self.dynamic_friction,
+            }
+        )
+        object.__setattr__(self, "stiffness", checked["stiffness"])
+        object.__setattr__(self, "damping", checked["damping"])
+        static, dynamic = checked["static_friction"], checked["dynamic_friction"]
         if dynamic > static:
             raise LocalError(
                 f"material.dynamic_friction is {dynamic!r}; it must be <= "
@@ -97,38 +104,41 @@ class Pose:
 
 @dataclass(frozen=True)
 class Sphere:
-    """A sphere of radius (m, > 0) centred at the body origin."""
+    """A sphere of radius (m, in (0, 1e3]) centred at the body origin."""
 
     radius: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "radius", check.positive(self.radius, "radius"))
+        object.__setattr__(self, "radius", check.limited(self.radius, "radius", "size"))
 
 
 @dataclass(frozen=True, eq=False)
 class Box:
-    """A box with half_extents (m, each > 0) along the body's axes, centred at its origin."""
+    """A box with half_extents (m, each in (0, 1e3]) along the body's axes, centred at
+    its origin."""
 
     half_extents: FloatArray
 
     def __post_init__(self) -> None:
         half = check.vector3(self.half_extents, "half_extents")
-        if np.any(half <= 0):
-            raise LocalError(f"half_extents is {half.tolist()}; each must be > 0")
+        size = check.RANGES["size"]
+        if not all(float(h) in size for h in half):
+            raise LocalError(f"half_extents is {half.tolist()}; each must be in {size}")
         object.__setattr__(self, "half_extents", half)
 
 
 @dataclass(frozen=True)
 class Capsule:
-    """A capsule: radius (m, > 0) around the segment of half_length (m, >= 0) along the
-    body's z axis."""
+    """A capsule: radius (m, in (0, 1e3]) around the segment of half_length (m, in
+    [0, 1e3]) along the body's z axis."""
 
     radius: float
     half_length: float
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "radius", check.positive(self.radius, "radius"))
-        object.__setattr__(self, "half_length", check.non_negative(self.half_length, "half_length"))
+        object.__setattr__(self, "radius", check.limited(self.radius, "radius", "size"))
+        half_length = check.limited(self.half_length, "half_length", "half_length")
+        object.__setattr__(self, "half_length", half_length)
 
 
 @dataclass(frozen=True)
@@ -138,12 +148,14 @@ class Plane:
 
 @dataclass(frozen=True, eq=False)
 class Convex:
-    """The convex hull of points (m, shape (N, 3), N >= 4, in the body frame)."""
+    """The convex hull of points (m, shape (N, 3), N >= 4, in the body frame, each
+    coordinate within 1e4 m)."""
 
     points: FloatArray
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "points", check.points(self.points, "points", minimum=4))
+        points = check.coordinates(check.points(self.points, "points", minimum=4), "points")
+        object.__setattr__(self, "points", points)
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,7 +172,7 @@ class Mesh:
     ray_backend: str = "default"
 
     def __post_init__(self) -> None:
-        vertices = check.points(self.vertices, "vertices", minimum=3)
+        vertices = check.coordinates(check.points(self.vertices, "vertices", minimum=3), "vertices")
         object.__setattr__(self, "vertices", vertices)
         object.__setattr__(
             self, "triangles", check.triangles(self.triangles, "triangles", len(vertices))
@@ -176,8 +188,9 @@ SHAPE_TYPES = (Sphere, Box, Capsule, Plane, Convex, Mesh)
 @dataclass(frozen=True, eq=False)
 class ObjectSpec:
     """One object to add to (or replace in) the scene: a unique name, a shape, its pose
-    in W, its material, and for a kinematic object its velocity (m/s) and angular
-    velocity (rad/s) in W. A static object has zero velocities."""
+    in W (each coordinate of its position within 1e4 m), its material, and for a
+    kinematic object its velocity (m/s, at most 100) and angular velocity (rad/s, at
+    most 1e3) in W. A static object has zero velocities."""
 
     name: str
     shape: Shape
@@ -195,10 +208,12 @@ class ObjectSpec:
             )
         if not isinstance(self.pose, Pose):
             raise LocalError(f"pose is {self.pose!r}; it must be a Pose")
+        check.coordinates(self.pose.position, "position")
         if not isinstance(self.material, Material):
             raise LocalError(f"material is {self.material!r}; it must be a Material")
-        velocity = check.vector3(self.velocity, "velocity")
-        angular = check.vector3(self.angular_velocity, "angular_velocity")
+        velocity = check.norm_limited(check.vector3(self.velocity, "velocity"), "velocity", "speed")
+        angular_velocity = check.vector3(self.angular_velocity, "angular_velocity")
+        angular = check.norm_limited(angular_velocity, "angular_velocity", "angular_speed")
         if not self.kinematic and (np.any(velocity) or np.any(angular)):
             raise LocalError(
                 f"object {self.name!r} is static but has velocity {velocity.tolist()} and "
@@ -209,12 +224,19 @@ class ObjectSpec:
 
 
 MATERIAL_FIELDS = tuple(f.name for f in dataclasses.fields(Material))
+# Which of _validate.RANGES each numeric material field is within.
+_MATERIAL_RANGES = {
+    "stiffness": "stiffness",
+    "damping": "damping",
+    "static_friction": "friction",
+    "dynamic_friction": "friction",
+}
 
 
 def check_material_fields(value: Mapping[str, Any]) -> dict[str, Any]:
-    """value as a dict of Material fields, each checked on its own (a stiffness > 0,
-    the others >= 0, force_shading a bool or None); LocalError naming the first unknown
-    field or bad value. How the frictions compare is the Material's to check."""
+    """value as a dict of Material fields, each checked on its own against the server's
+    ranges (_validate.RANGES; force_shading a bool or None); LocalError naming the first
+    unknown field or bad value. How the frictions compare is the Material's to check."""
     checked: dict[str, Any] = {}
     for key, item in value.items():
         if key not in MATERIAL_FIELDS:
@@ -224,10 +246,8 @@ def check_material_fields(value: Mapping[str, Any]) -> dict[str, Any]:
             )
         if key == "force_shading":
             checked[key] = None if item is None else check.flag(item, "material.force_shading")
-        elif key == "stiffness":
-            checked[key] = check.positive(item, "material.stiffness")
         else:
-            checked[key] = check.non_negative(item, f"material.{key}")
+            checked[key] = check.limited(item, f"material.{key}", _MATERIAL_RANGES[key])
     return checked
 
 

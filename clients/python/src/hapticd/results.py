@@ -20,7 +20,12 @@ class ObjectInfo:
     """One object as the server holds it: its shape ("sphere", ..., "mesh"), the
     representation it renders it as and that representation's error bound (m), its
     world bounds (infinite for a plane), pose, material, and a mesh's triangle count
-    and query backend ("native" or "embree"; "" for the other shapes)."""
+    and query backend ("native" or "embree"; "" for the other shapes). For an object
+    given as a mesh (whatever represents it): closed (it bounds a solid), topology
+    ("closed", "open" or "non-orientable"; an open mesh is a surface: distances to it
+    are unsigned and nothing is inside it), rewound_triangles (how many the server
+    turned so that the normals point out), and warnings, one sentence each (rewound,
+    open, a pinned representation beyond the tolerance)."""
 
     name: str
     shape: str
@@ -33,6 +38,10 @@ class ObjectInfo:
     kinematic: bool
     triangles: int
     ray_backend: str = ""
+    closed: bool = False
+    topology: str = ""
+    rewound_triangles: int = 0
+    warnings: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -53,8 +62,10 @@ class SceneInfo:
 
 @dataclass(frozen=True, eq=False)
 class RayHit:
-    """A ray cast's first hit: distance along the ray (m), point and outward normal in
-    W, and the object hit. hit is False (and the rest zero) on a miss."""
+    """A ray cast's first hit: distance along the ray (m), point and normal in W (the
+    surface's normal turned towards the ray's origin: outward for a ray from outside,
+    inward for one that starts inside a solid and so reports where it leaves), and the
+    object hit. hit is False (and the rest zero) on a miss."""
 
     hit: bool
     distance: float
