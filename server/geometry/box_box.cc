@@ -3,6 +3,13 @@
 #include <cmath>
 
 namespace hapticd::geometry {
+namespace {
+
+bool IsFinite(const Box& box) {
+  return box.center.allFinite() && box.rotation.allFinite() && box.half_extents.allFinite();
+}
+
+}  // namespace
 
 // Theory. Two convex polyhedra are disjoint iff some axis separates their
 // projections; for two boxes it suffices to try the 3 face normals of each and the 9
@@ -24,6 +31,8 @@ namespace hapticd::geometry {
 // whose edges meet at an angle theta separates only beyond a gap of about
 // tol / sin(theta).
 bool BoxesOverlap(const Box& a, const Box& b) {
+  // Non-finite input: no contact (a NaN would otherwise pass every separation test).
+  if (!IsFinite(a) || !IsFinite(b)) return false;
   const Vector3& ha = a.half_extents;
   const Vector3& hb = b.half_extents;
   const Matrix3 R = a.rotation.transpose() * b.rotation;

@@ -17,8 +17,8 @@ inline constexpr double kBoxesOverlapTolerance = 1e-12;
 // are rotated and the touching configuration is only exact up to rounding. Boxes
 // apart by more than about 1e-12 of their size report no contact. Nearly parallel
 // edges (whose cross product vanishes) never separate by rounding noise. Preconditions:
-// finite input, orthonormal rotations, half_extents >= 0; a NaN gives an unspecified
-// answer, never a crash.
+// orthonormal rotations, half_extents >= 0. A NaN or infinity anywhere in either box
+// (centre, rotation or half extents) gives false: no contact.
 bool BoxesOverlap(const Box& a, const Box& b);
 
 }  // namespace hapticd::geometry

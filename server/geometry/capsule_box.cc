@@ -13,6 +13,10 @@ namespace {
 // geometry rather than from the direction of that noise.
 constexpr double kTouchTolerance = 1e-12;
 
+bool IsFinite(const Box& box) {
+  return box.center.allFinite() && box.rotation.allFinite() && box.half_extents.allFinite();
+}
+
 // Closest points in the box frame B, where the box is [-h, h].
 struct LocalClosest {
   double t = 0;
@@ -138,6 +142,12 @@ LocalPenetration FindSegmentPenetration(const Vector3& P, const Vector3& Q,
 
 SegmentBoxClosestPoints FindClosestPointsSegmentBox(const Vector3& p0, const Vector3& p1,
                                                     const Box& box) {
+  // Non-finite input: nothing found, as far away as a double can say.
+  if (!p0.allFinite() || !p1.allFinite() || !IsFinite(box)) {
+    SegmentBoxClosestPoints nothing;
+    nothing.distance_squared = std::numeric_limits<double>::max();
+    return nothing;
+  }
   const Matrix3& R_WB = box.rotation;
   const Vector3 P = R_WB.transpose() * (p0 - box.center);
   const Vector3 D = R_WB.transpose() * (p1 - p0);
@@ -152,6 +162,12 @@ SegmentBoxClosestPoints FindClosestPointsSegmentBox(const Vector3& p0, const Vec
 
 CapsuleBoxResult CollideCapsuleBox(const Capsule& capsule, const Box& box) {
   CapsuleBoxResult result;
+  // Non-finite input: no contact, every field zero (the normal included).
+  if (!capsule.p0.allFinite() || !capsule.p1.allFinite() || !std::isfinite(capsule.radius) ||
+      !IsFinite(box)) {
+    result.normal = Vector3::Zero();
+    return result;
+  }
   const Matrix3& R_WB = box.rotation;
   const Vector3& h = box.half_extents;
   const double r = capsule.radius;

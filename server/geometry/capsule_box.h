@@ -23,8 +23,10 @@ struct SegmentBoxClosestPoints {
 // Finds the segment point nearest the box and the box point nearest it. Where several
 // segment points are equally near (a segment parallel to a face, or through the box)
 // one of them is returned: the middle of the first such stretch.
-// Preconditions: finite input, orthonormal rotation, half_extents >= 0; p0 == p1 is
-// fine (a point). Non-finite input gives unspecified values, never a crash.
+// Preconditions: orthonormal rotation, half_extents >= 0; p0 == p1 is fine (a point).
+// A NaN or infinity in p0, p1 or the box (centre, rotation, half extents) finds
+// nothing: t 0, both points zero and distance_squared the largest finite double, so
+// that no radius reaches it.
 SegmentBoxClosestPoints FindClosestPointsSegmentBox(const Vector3& p0, const Vector3& p1,
                                                     const Box& box);
 
@@ -40,7 +42,8 @@ struct CapsuleBoxResult {
   double distance = 0;
   // Unit, from the box towards the capsule: translating the capsule by
   // -distance * normal makes them touch. While the segment is inside, a face normal
-  // of the box or a normal of a box edge and the segment (box edge x segment).
+  // of the box or a normal of a box edge and the segment (box edge x segment). Zero
+  // only for non-finite input (below).
   Vector3 normal = Vector3::UnitX();
   // point_box: the box point nearest the capsule (when the segment is inside: where
   // the separated segment would touch the box). point_capsule: the capsule point
@@ -53,7 +56,9 @@ struct CapsuleBoxResult {
 // Collides a capsule with a box given in the same frame. Preconditions: as for
 // FindClosestPointsSegmentBox, and radius >= 0. Ties between exit directions of a
 // penetrating segment go to the box faces (x, y, z, each + before -), then the edge
-// normals. Non-finite input gives unspecified values, never a crash.
+// normals. A NaN or infinity in the capsule (p0, p1, radius) or the box gives no
+// contact: intersect false, distance 0, and the normal and both points zero (the one
+// answer whose normal is not unit, so that any force made from it is zero).
 CapsuleBoxResult CollideCapsuleBox(const Capsule& capsule, const Box& box);
 
 }  // namespace hapticd::geometry

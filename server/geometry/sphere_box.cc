@@ -3,9 +3,22 @@
 #include <cmath>
 
 namespace hapticd::geometry {
+namespace {
+
+bool IsFinite(const Sphere& sphere, const Box& box) {
+  return sphere.center.allFinite() && std::isfinite(sphere.radius) && box.center.allFinite() &&
+         box.rotation.allFinite() && box.half_extents.allFinite();
+}
+
+}  // namespace
 
 SphereBoxResult CollideSphereBox(const Sphere& sphere, const Box& box) {
   SphereBoxResult result;
+  // Non-finite input: no contact, every field zero (the normal included).
+  if (!IsFinite(sphere, box)) {
+    result.normal = Vector3::Zero();
+    return result;
+  }
   const Matrix3& R_WB = box.rotation;
   const Vector3& h = box.half_extents;
   // The centre in the box frame B.

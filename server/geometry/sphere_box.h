@@ -17,7 +17,7 @@ struct SphereBoxResult {
   // the shortest translation of the sphere that separates them).
   double distance = 0;
   // Unit, from the box towards the sphere: translating the sphere by
-  // -distance * normal makes them touch.
+  // -distance * normal makes them touch. Zero only for non-finite input (below).
   Vector3 normal = Vector3::UnitX();
   // point_box: the point of the box nearest the sphere (when the centre is inside,
   // the point of the exit face the centre projects to). point_sphere: the point of
@@ -27,11 +27,13 @@ struct SphereBoxResult {
   Vector3 point_sphere = Vector3::Zero();
 };
 
-// Collides a sphere with a box given in the same frame. Preconditions: finite input,
-// radius >= 0, half_extents >= 0, box.rotation orthonormal. A centre inside the box
-// (or on its surface) exits through the nearest face; on a tie between faces the
-// lowest axis wins, and the + face when the centre is exactly mid-way. Non-finite
-// input gives unspecified values, never a crash.
+// Collides a sphere with a box given in the same frame. Preconditions: radius >= 0,
+// half_extents >= 0, box.rotation orthonormal. A centre inside the box (or on its
+// surface) exits through the nearest face; on a tie between faces the lowest axis
+// wins, and the + face when the centre is exactly mid-way. A NaN or infinity in the
+// sphere (centre, radius) or the box (centre, rotation, half extents) gives no
+// contact: intersect false, distance 0, and the normal and both points zero (the one
+// answer whose normal is not unit, so that any force made from it is zero).
 SphereBoxResult CollideSphereBox(const Sphere& sphere, const Box& box);
 
 }  // namespace hapticd::geometry

@@ -80,6 +80,8 @@ class SmallExpansion {
   int size_ = 0;
 };
 
+bool IsFinite(const Sphere& s) { return s.center.allFinite() && std::isfinite(s.radius); }
+
 }  // namespace
 
 // Derivation of the filter. With u the unit roundoff, each computed difference
@@ -91,6 +93,8 @@ class SmallExpansion {
 // and the radius sum become exact two-term numbers, and their squares become six
 // exact products each (24 terms in all), summed in a nonoverlapping expansion.
 int CompareCenterDistanceToRadiusSum(const Sphere& a, const Sphere& b) {
+  // Non-finite input: apart, as CollideSpheres answers it.
+  if (!IsFinite(a) || !IsFinite(b)) return 1;
   const Vector3 delta = b.center - a.center;
   const double d2 = delta.squaredNorm();
   const double sum = a.radius + b.radius;
@@ -98,7 +102,7 @@ int CompareCenterDistanceToRadiusSum(const Sphere& a, const Sphere& b) {
   const double det = d2 - s2;
   // Fast path: the floating-point sign is proven right.
   if (std::abs(det) > kFilterBound * (d2 + s2)) return det > 0 ? 1 : -1;
-  // Non-finite input: no meaningful sign; report contact rather than loop.
+  // Finite input whose squares overflow: no meaningful sign; report touching.
   if (!std::isfinite(det)) return 0;
   // Slow path: exact evaluation.
   SmallExpansion exact;
@@ -109,6 +113,11 @@ int CompareCenterDistanceToRadiusSum(const Sphere& a, const Sphere& b) {
 
 SphereSphereResult CollideSpheres(const Sphere& a, const Sphere& b) {
   SphereSphereResult result;
+  // Non-finite input: no contact, every field zero (the normal included).
+  if (!IsFinite(a) || !IsFinite(b)) {
+    result.normal = Vector3::Zero();
+    return result;
+  }
   const Vector3 delta = b.center - a.center;
   const double d = delta.norm();
   // If the centres coincide (or their distance underflows), pick +x.

@@ -14,6 +14,7 @@ struct SphereSphereResult {
   // (the length of the shortest translation that separates them, ra + rb - |cb - ca|).
   double distance = 0;
   // Unit, from a towards b: translating b by -distance * normal makes them touch.
+  // Zero only for non-finite input (see CollideSpheres).
   Vector3 normal = Vector3::UnitX();
   // point_a: the point of a nearest b (deepest into b when they overlap); point_b
   // likewise. |point_b - point_a| == |distance| up to rounding.
@@ -21,15 +22,18 @@ struct SphereSphereResult {
   Vector3 point_b = Vector3::Zero();
 };
 
-// Collides two spheres given in one frame. Preconditions: finite centres, radii >= 0.
-// Concentric spheres have no preferred direction: the normal is then +x, by
-// convention, and distance = -(ra + rb). Non-finite input gives unspecified values,
-// never a crash.
+// Collides two spheres given in one frame. Preconditions: radii >= 0. Concentric
+// spheres have no preferred direction: the normal is then +x, by convention, and
+// distance = -(ra + rb). A NaN or infinity in either centre or radius gives no
+// contact: intersect false, distance 0, and the normal and both points zero (the one
+// answer whose normal is not unit, so that any force made from it is zero). Finite
+// input whose squares overflow (magnitudes beyond about 1e150) gives unspecified values.
 SphereSphereResult CollideSpheres(const Sphere& a, const Sphere& b);
 
 // Exact sign of |cb - ca|^2 - (ra + rb)^2: -1 or 0 when the closed balls intersect.
-// The same preconditions; the answer is right for every finite input whose squares
-// neither overflow nor underflow (magnitudes within about 1e-140..1e140).
+// Preconditions: radii >= 0; the answer is right for every finite input whose squares
+// neither overflow nor underflow (magnitudes within about 1e-140..1e140), and 0 where
+// finite squares overflow. A NaN or infinity anywhere gives +1, apart, as above.
 int CompareCenterDistanceToRadiusSum(const Sphere& a, const Sphere& b);
 
 }  // namespace hapticd::geometry

@@ -5,11 +5,13 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "server/geometry/segment_triangle.h"
 #include "server/geometry/test/box_surface.h"
+#include "server/geometry/test/non_finite.h"
 #include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
@@ -256,20 +258,20 @@ TEST(BoxBoxTest, DegenerateBoxes) {
   EXPECT_FALSE(BoxesOverlap(kUnit, off));
 }
 
-TEST(BoxBoxTest, NonFiniteInputDoesNotCrash) {
+// A NaN or infinity in any field of either box is no contact, also where the finite
+// boxes overlap (here a box and itself).
+TEST(BoxBoxTest, NonFiniteInputIsNoContact) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
-  Box bad = kUnit;
-  bad.center.x() = nan;
-  (void)BoxesOverlap(kUnit, bad);
-  bad.center.x() = inf;
-  (void)BoxesOverlap(bad, kUnit);
-  bad = kUnit;
-  bad.rotation(2, 1) = nan;
-  (void)BoxesOverlap(bad, kUnit);
-  bad.half_extents.y() = inf;
-  (void)BoxesOverlap(kUnit, bad);
-  SUCCEED();
+  ASSERT_TRUE(BoxesOverlap(kUnit, kUnit));
+  std::vector<Box> bad = WithOneNonFiniteField(kUnit);
+  ASSERT_EQ(bad.size(), 45u);  // 15 fields (centre, rotation, half extents) x 3 values
+  bad.push_back({{inf, -inf, nan}, Matrix3::Constant(nan), {inf, inf, inf}});
+  for (std::size_t i = 0; i < bad.size(); ++i) {
+    EXPECT_FALSE(BoxesOverlap(kUnit, bad[i])) << "case " << i;
+    EXPECT_FALSE(BoxesOverlap(bad[i], kUnit)) << "case " << i;
+    EXPECT_FALSE(BoxesOverlap(bad[i], bad[i])) << "case " << i;
+  }
 }
 
 }  // namespace

@@ -305,7 +305,7 @@ TEST(DynamicAabbTreeTest, NonFiniteBoxesDoNotCrash) {
   const int good = tree.Insert({{0, 0, 0}, {1, 1, 1}});
   const int bad = tree.Insert({{nan, 0, 0}, {1, nan, 1}});
   tree.Insert({{-inf, -inf, -inf}, {inf, inf, inf}});
-  tree.Insert({{0.5, 0.5, 0.5}, {2, 2, 2}});
+  const int overlapping = tree.Insert({{0.5, 0.5, 0.5}, {2, 2, 2}});
   tree.Move(bad, {{nan, nan, nan}, {nan, nan, nan}}, Vector3(nan, 0, 0));
   tree.Move(good, {{0, 0, 0}, {1, 1, 1}}, Vector3(inf, 0, 0));
   std::vector<ProxyPair> pairs;
@@ -313,6 +313,10 @@ TEST(DynamicAabbTreeTest, NonFiniteBoxesDoNotCrash) {
   tree.FindOverlappingPairs(&pairs);
   tree.Query({{nan, 0, 0}, {1, 1, 1}}, &hits);
   EXPECT_TRUE(hits.empty());
+  // The finite boxes still pair up (so the check on bad below is not vacuous).
+  const PairList found = Sorted(pairs);
+  const std::pair<int, int> finite_pair{std::min(good, overlapping), std::max(good, overlapping)};
+  EXPECT_NE(std::find(found.begin(), found.end(), finite_pair), found.end());
   for (const ProxyPair& p : pairs) EXPECT_TRUE(p.a != bad && p.b != bad);
   EXPECT_TRUE(tree.Remove(bad));
   EXPECT_EQ(tree.size(), 3);

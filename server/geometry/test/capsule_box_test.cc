@@ -5,12 +5,14 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/sphere_box.h"
 #include "server/geometry/test/box_surface.h"
+#include "server/geometry/test/non_finite.h"
 #include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
@@ -263,22 +265,63 @@ TEST(CapsuleBoxTest, Invariances) {
   }
 }
 
-TEST(CapsuleBoxTest, NonFiniteInputDoesNotCrash) {
+// The answer to non-finite input: no contact, every field zero, so finite.
+void ExpectNonFiniteAnswer(const CapsuleBoxResult& r) {
+  EXPECT_FALSE(r.intersect);
+  EXPECT_EQ(r.distance, 0.0);
+  EXPECT_EQ(r.normal, Vector3::Zero());
+  EXPECT_EQ(r.point_box, Vector3::Zero());
+  EXPECT_EQ(r.point_capsule, Vector3::Zero());
+}
+
+// A NaN or infinity in any field of the capsule or the box gives that answer, also
+// where the finite shapes overlap (here a capsule from inside the cube).
+TEST(CapsuleBoxTest, NonFiniteInputIsNoContact) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
-  for (const Capsule& c :
-       {Capsule{{nan, 0, 0}, {1, 2, 3}, 1}, Capsule{{0, 0, 0}, {1, 2, 3}, nan},
-        Capsule{{inf, 0, 0}, {1, 2, 3}, 1}, Capsule{{-inf, 0, 0}, {inf, 0, 0}, 1},
-        Capsule{{0, 0, 0}, {0, nan, 0}, 1}}) {
-    (void)CollideCapsuleBox(c, kCube);
-    (void)FindClosestPointsSegmentBox(c.p0, c.p1, kCube);
+  const Capsule good{{0, 0, 0}, {1, 2, 3}, 1};
+  ASSERT_TRUE(CollideCapsuleBox(good, kCube).intersect);
+  std::vector<Capsule> bad_capsules = WithOneNonFiniteField(good);
+  ASSERT_EQ(bad_capsules.size(), 21u);  // 7 fields (p0, p1, radius) x 3 values
+  bad_capsules.push_back({{-inf, 0, 0}, {inf, 0, 0}, 1});
+  for (std::size_t i = 0; i < bad_capsules.size(); ++i) {
+    SCOPED_TRACE(::testing::Message() << "capsule case " << i);
+    ExpectNonFiniteAnswer(CollideCapsuleBox(bad_capsules[i], kCube));
   }
-  Box bad = kCube;
-  bad.rotation(0, 1) = nan;
-  (void)CollideCapsuleBox({{0, 0, 0}, {1, 2, 3}, 1}, bad);
-  bad.half_extents.z() = inf;
-  (void)CollideCapsuleBox({{0, 0, 0}, {1, 2, 3}, 1}, bad);
-  SUCCEED();
+  const std::vector<Box> bad_boxes = WithOneNonFiniteField(kCube);
+  ASSERT_EQ(bad_boxes.size(), 45u);  // 15 fields (centre, rotation, half extents) x 3 values
+  for (std::size_t i = 0; i < bad_boxes.size(); ++i) {
+    SCOPED_TRACE(::testing::Message() << "box case " << i);
+    ExpectNonFiniteAnswer(CollideCapsuleBox(good, bad_boxes[i]));
+    ExpectNonFiniteAnswer(CollideCapsuleBox({{nan, 0, 0}, {1, 2, 3}, inf}, bad_boxes[i]));
+  }
+}
+
+// The segment-box search finds nothing in non-finite input: t 0, points zero, and the
+// largest finite squared distance, also for a segment through the cube.
+TEST(CapsuleBoxTest, NonFiniteSegmentOrBoxFindsNothing) {
+  const auto expect_nothing = [](const SegmentBoxClosestPoints& c) {
+    EXPECT_EQ(c.t, 0.0);
+    EXPECT_EQ(c.point_segment, Vector3::Zero());
+    EXPECT_EQ(c.point_box, Vector3::Zero());
+    EXPECT_EQ(c.distance_squared, std::numeric_limits<double>::max());
+  };
+  const Vector3 p0(0, 0, 0);
+  const Vector3 p1(1, 2, 3);
+  ASSERT_EQ(FindClosestPointsSegmentBox(p0, p1, kCube).distance_squared, 0.0);
+  const std::vector<Vector3> bad_points = WithOneNonFiniteField(p1);
+  ASSERT_EQ(bad_points.size(), 9u);  // 3 coordinates x 3 values
+  for (std::size_t i = 0; i < bad_points.size(); ++i) {
+    SCOPED_TRACE(::testing::Message() << "point case " << i);
+    expect_nothing(FindClosestPointsSegmentBox(bad_points[i], p1, kCube));
+    expect_nothing(FindClosestPointsSegmentBox(p0, bad_points[i], kCube));
+  }
+  const std::vector<Box> bad_boxes = WithOneNonFiniteField(kCube);
+  ASSERT_EQ(bad_boxes.size(), 45u);
+  for (std::size_t i = 0; i < bad_boxes.size(); ++i) {
+    SCOPED_TRACE(::testing::Message() << "box case " << i);
+    expect_nothing(FindClosestPointsSegmentBox(p0, p1, bad_boxes[i]));
+  }
 }
 
 }  // namespace

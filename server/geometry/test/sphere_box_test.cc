@@ -5,11 +5,13 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/test/box_surface.h"
+#include "server/geometry/test/non_finite.h"
 #include "server/geometry/test/random_geometry.h"
 
 namespace hapticd::geometry {
@@ -167,19 +169,34 @@ TEST(SphereBoxTest, RigidMotionInvariance) {
   }
 }
 
-TEST(SphereBoxTest, NonFiniteInputDoesNotCrash) {
-  const double nan = std::numeric_limits<double>::quiet_NaN();
+// The answer to non-finite input: no contact, every field zero, so finite.
+void ExpectNonFiniteAnswer(const SphereBoxResult& r) {
+  EXPECT_FALSE(r.intersect);
+  EXPECT_EQ(r.distance, 0.0);
+  EXPECT_EQ(r.normal, Vector3::Zero());
+  EXPECT_EQ(r.point_box, Vector3::Zero());
+  EXPECT_EQ(r.point_sphere, Vector3::Zero());
+}
+
+// A NaN or infinity in any field of the sphere or the box gives that answer, also
+// where the finite shapes overlap (here a sphere centred on a corner of the box).
+TEST(SphereBoxTest, NonFiniteInputIsNoContact) {
   const double inf = std::numeric_limits<double>::infinity();
-  for (const Sphere& s : {Sphere{{nan, 0, 0}, 1}, Sphere{{0, 0, 0}, nan}, Sphere{{inf, 0, 0}, 1},
-                          Sphere{{-inf, inf, 0}, inf}}) {
-    (void)CollideSphereBox(s, kBox);
+  const Sphere good{{1, 2, 3}, 1};
+  ASSERT_TRUE(CollideSphereBox(good, kBox).intersect);
+  std::vector<Sphere> bad_spheres = WithOneNonFiniteField(good);
+  ASSERT_EQ(bad_spheres.size(), 12u);  // 4 fields (centre, radius) x 3 values
+  bad_spheres.push_back({{-inf, inf, 0}, inf});
+  for (std::size_t i = 0; i < bad_spheres.size(); ++i) {
+    SCOPED_TRACE(::testing::Message() << "sphere case " << i);
+    ExpectNonFiniteAnswer(CollideSphereBox(bad_spheres[i], kBox));
   }
-  Box bad = kBox;
-  bad.rotation(1, 1) = nan;
-  (void)CollideSphereBox({{1, 2, 3}, 1}, bad);
-  bad.half_extents.x() = inf;
-  (void)CollideSphereBox({{1, 2, 3}, 1}, bad);
-  SUCCEED();
+  const std::vector<Box> bad_boxes = WithOneNonFiniteField(kBox);
+  ASSERT_EQ(bad_boxes.size(), 45u);  // 15 fields (centre, rotation, half extents) x 3 values
+  for (std::size_t i = 0; i < bad_boxes.size(); ++i) {
+    SCOPED_TRACE(::testing::Message() << "box case " << i);
+    ExpectNonFiniteAnswer(CollideSphereBox(good, bad_boxes[i]));
+  }
 }
 
 }  // namespace

@@ -1,9 +1,11 @@
 #include "server/geometry/sphere_sphere.h"
+#include "server/geometry/test/non_finite.h"
 #include "server/geometry/test/random_geometry.h"
 
 #include <cmath>
 #include <limits>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -192,19 +194,33 @@ TEST(SphereSphereTest, RigidMotionInvariance) {
 }
 
 // NaN and infinity: no crash, no hang; the answer is unspecified.
-TEST(SphereSphereTest, NonFiniteInputDoesNotCrash) {
-  const double nan = std::numeric_limits<double>::quiet_NaN();
+// The answer to non-finite input: no contact, every field zero, so finite.
+void ExpectNonFiniteAnswer(const SphereSphereResult& r) {
+  EXPECT_FALSE(r.intersect);
+  EXPECT_EQ(r.distance, 0.0);
+  EXPECT_EQ(r.normal, Vector3::Zero());
+  EXPECT_EQ(r.point_a, Vector3::Zero());
+  EXPECT_EQ(r.point_b, Vector3::Zero());
+}
+
+// A NaN or infinity in any field of either sphere gives that answer, also where the
+// finite spheres overlap (here a sphere and itself); the exact sign says "apart".
+TEST(SphereSphereTest, NonFiniteInputIsNoContact) {
   const double inf = std::numeric_limits<double>::infinity();
   const Sphere good{{0, 0, 0}, 1};
-  for (const Sphere& bad : {Sphere{{nan, 0, 0}, 1}, Sphere{{0, 0, 0}, nan},
-                            Sphere{{inf, 0, 0}, 1}, Sphere{{0, -inf, 0}, inf},
-                            Sphere{{1e200, 0, 0}, 1e200}}) {
-    const SphereSphereResult r = CollideSpheres(good, bad);
-    (void)r;
-    (void)CollideSpheres(bad, bad);
-    (void)CompareCenterDistanceToRadiusSum(bad, good);
+  ASSERT_TRUE(CollideSpheres(good, good).intersect);
+  std::vector<Sphere> bad = WithOneNonFiniteField(good);
+  ASSERT_EQ(bad.size(), 12u);  // 4 fields (centre, radius) x 3 values
+  bad.push_back({{0, -inf, 0}, inf});
+  bad.push_back({{inf, inf, inf}, 1});
+  for (std::size_t i = 0; i < bad.size(); ++i) {
+    SCOPED_TRACE(::testing::Message() << "case " << i);
+    ExpectNonFiniteAnswer(CollideSpheres(good, bad[i]));
+    ExpectNonFiniteAnswer(CollideSpheres(bad[i], good));
+    ExpectNonFiniteAnswer(CollideSpheres(bad[i], bad[i]));
+    EXPECT_EQ(CompareCenterDistanceToRadiusSum(bad[i], good), 1);
+    EXPECT_EQ(CompareCenterDistanceToRadiusSum(good, bad[i]), 1);
   }
-  SUCCEED();
 }
 
 }  // namespace

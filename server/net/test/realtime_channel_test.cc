@@ -2,6 +2,7 @@
 // what the channel drops and counts.
 #include "server/net/realtime_channel.h"
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <thread>
@@ -16,6 +17,32 @@ namespace {
 
 using testing::DeviceSocket;
 using testing::Harness;
+
+// How long a test waits for the realtime thread to do something (answer, count, hand a
+// slot back) before it fails: far beyond what a loaded machine needs; a test that
+// passes goes on as soon as it has happened.
+constexpr int kDeadlineMs = 5000;
+// How long a state that must be dropped has to stay unanswered.
+constexpr int kQuietMs = 200;
+
+// Polls condition every millisecond until it holds (true) or kDeadlineMs pass (false).
+// Allocates nothing.
+template <typename Condition>
+bool WaitUntil(Condition condition) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(kDeadlineMs);
+  while (!condition()) {
+    if (std::chrono::steady_clock::now() >= deadline) return condition();
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return true;
+}
+
+// Waits until counter reaches expected, then checks that it is exactly that.
+void ExpectCountReaches(const std::atomic<uint64_t>& counter, uint64_t expected, const char* name) {
+  EXPECT_TRUE(WaitUntil([&] { return counter.load() >= expected; }))
+      << name << " did not reach " << expected << " within " << kDeadlineMs << " ms";
+  EXPECT_EQ(counter.load(), expected) << name;
+}
 
 struct OpenedSession {
   uint32_t id = 0;
@@ -47,16 +74,18 @@ class RealtimeChannelTest : public ::testing::Test {
  protected:
   void SetUp() override { harness_.realtime.Start(); }
 
-  // Sends one state and returns the command that answers it (nullopt: none in 200 ms).
+  // Sends one state and returns the command that answers it (nullopt: no datagram came
+  // within timeout_ms; a state that must be dropped waits only kQuietMs).
   std::optional<DeviceCommandSample> Exchange(DeviceSocket& device, const OpenedSession& session,
-                                              DeviceStateSample state) {
+                                              DeviceStateSample state,
+                                              int timeout_ms = kDeadlineMs) {
     state.session_id = session.id;
     std::array<uint8_t, kMaxDatagramSize> buffer;
     const std::size_t size = codec_.EncodeState(state, session.key, buffer);
     device.SendRaw({buffer.data(), size});
     // The answer, past any watchdog command sent while the device was quiet.
     for (;;) {
-      const auto bytes = device.Receive(200);
+      const auto bytes = device.Receive(timeout_ms);
       if (!bytes) return std::nullopt;
       DeviceCommandSample command;
       EXPECT_EQ(codec_.ParseCommand(*bytes, command), DatagramError::kNone);
@@ -126,18 +155,18 @@ TEST_F(RealtimeChannelTest, DropsAndCountsWhatIsNotAFreshAuthenticState) {
   // Wrong key.
   OpenedSession forged = session;
   forged.key[0] ^= 1;
-  EXPECT_FALSE(Exchange(device, forged, StateAt(6, {0, 0, 0.1})));
-  EXPECT_EQ(counters.bad_tag.load(), 1u);
+  EXPECT_FALSE(Exchange(device, forged, StateAt(6, {0, 0, 0.1}), kQuietMs));
+  ExpectCountReaches(counters.bad_tag, 1, "bad_tag");
   // The same sequence again, and an older one never seen.
-  EXPECT_FALSE(Exchange(device, session, StateAt(5, {0, 0, 0.1})));
-  EXPECT_EQ(counters.replayed.load(), 1u);
-  EXPECT_FALSE(Exchange(device, session, StateAt(4, {0, 0, 0.1})));
-  EXPECT_EQ(counters.reordered.load(), 1u);
+  EXPECT_FALSE(Exchange(device, session, StateAt(5, {0, 0, 0.1}), kQuietMs));
+  ExpectCountReaches(counters.replayed, 1, "replayed");
+  EXPECT_FALSE(Exchange(device, session, StateAt(4, {0, 0, 0.1}), kQuietMs));
+  ExpectCountReaches(counters.reordered, 1, "reordered");
   // A session nobody opened.
   OpenedSession stranger = session;
   stranger.id = session.id + 1;
-  EXPECT_FALSE(Exchange(device, stranger, StateAt(6, {0, 0, 0.1})));
-  EXPECT_EQ(counters.unknown_session.load(), 1u);
+  EXPECT_FALSE(Exchange(device, stranger, StateAt(6, {0, 0, 0.1}), kQuietMs));
+  ExpectCountReaches(counters.unknown_session, 1, "unknown_session");
   // Too long, too short, not protobuf.
   std::vector<uint8_t> big(kMaxDatagramSize + 100, 0x08);
   device.SendRaw(big);
@@ -145,9 +174,8 @@ TEST_F(RealtimeChannelTest, DropsAndCountsWhatIsNotAFreshAuthenticState) {
   device.SendRaw(tiny);
   std::vector<uint8_t> garbage(64, 0xff);
   device.SendRaw(garbage);
-  std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  EXPECT_EQ(counters.oversized.load(), 1u);
-  EXPECT_EQ(counters.malformed.load(), 2u);
+  ExpectCountReaches(counters.oversized, 1, "oversized");
+  ExpectCountReaches(counters.malformed, 2, "malformed");
 
   // Through all that, the session is served as before.
   const auto command = Exchange(device, session, StateAt(6, {0, 0, 0.04}));
@@ -182,7 +210,7 @@ TEST_F(RealtimeChannelTest, SilenceRampsTheForceToZeroThenTheSessionTimesOut) {
   // The device goes quiet: the watchdog's commands arrive, flagged, never growing, down to zero.
   double previous = 10 + 1e-5;
   int watchdog_commands = 0;
-  while (const auto command = ReceiveCommand(device, session, 300)) {
+  while (const auto command = ReceiveCommand(device, session, kDeadlineMs)) {
     EXPECT_EQ(command->flags, static_cast<uint32_t>(v1::COMMAND_FLAGS_WATCHDOG));
     EXPECT_EQ(command->sequence, 0u);
     EXPECT_LE(command->f_W.norm(), previous + 1e-12);
@@ -195,8 +223,10 @@ TEST_F(RealtimeChannelTest, SilenceRampsTheForceToZeroThenTheSessionTimesOut) {
   const int index = harness_.sessions.FindById(session.id);
   EXPECT_EQ(harness_.sessions.slot(index).state.load(), SlotState::kRamping);
 
-  // After the timeout the slot is handed back and reclaimed; the session is gone.
-  std::this_thread::sleep_for(std::chrono::milliseconds(600));
+  // After the timeout (0.5 s of silence) the slot is handed back and reclaimed; the
+  // session is gone.
+  ASSERT_TRUE(WaitUntil([&] { return !IsLive(harness_.sessions.slot(index).state.load()); }))
+      << "the silent session was not handed back within " << kDeadlineMs << " ms";
   EXPECT_EQ(harness_.sessions.slot(index).state.load(), SlotState::kTimedOut);
   harness_.service.ReclaimSessions();
   EXPECT_EQ(harness_.sessions.FindById(session.id), -1);
@@ -205,21 +235,25 @@ TEST_F(RealtimeChannelTest, SilenceRampsTheForceToZeroThenTheSessionTimesOut) {
   ASSERT_EQ(telemetry.sessions_size(), 1);
   EXPECT_EQ(telemetry.sessions(0).state(), v1::SESSION_STATE_TIMED_OUT);
   EXPECT_EQ(telemetry.sessions(0).force().z(), 0);
-  EXPECT_FALSE(Exchange(device, session, StateAt(3, {0, 0, 0.04})));
-  EXPECT_EQ(harness_.realtime.counters().unknown_session.load(), 1u);
+  EXPECT_FALSE(Exchange(device, session, StateAt(3, {0, 0, 0.04}), kQuietMs));
+  ExpectCountReaches(harness_.realtime.counters().unknown_session, 1, "unknown_session");
 }
 
 TEST_F(RealtimeChannelTest, ClosedSessionsAreReclaimed) {
   const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
   DeviceSocket device(harness_.realtime.local_endpoint().port());
   ASSERT_TRUE(Exchange(device, session, StateAt(1, {0, 0, 0.1})));
+  const int index = harness_.sessions.FindById(session.id);
+  ASSERT_GE(index, 0);
   v1::Request close;
   close.mutable_close_session()->set_session_id(session.id);
   EXPECT_TRUE(harness_.Call(close).has_done());
-  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  // The realtime thread hands the closed slot back; then it is reclaimed.
+  ASSERT_TRUE(WaitUntil([&] { return !IsLive(harness_.sessions.slot(index).state.load()); }))
+      << "the closed session was not handed back within " << kDeadlineMs << " ms";
   harness_.service.ReclaimSessions();
   EXPECT_EQ(harness_.sessions.FindById(session.id), -1);
-  EXPECT_FALSE(Exchange(device, session, StateAt(2, {0, 0, 0.1})));
+  EXPECT_FALSE(Exchange(device, session, StateAt(2, {0, 0, 0.1}), kQuietMs));
   // Closing it again names the id.
   const v1::Reply again = harness_.Call(close);
   ASSERT_TRUE(again.has_error());
@@ -316,6 +350,10 @@ TEST_F(RealtimeChannelTest, TheRealtimePathAllocatesNothing) {
   DeviceSocket device(harness_.realtime.local_endpoint().port());
   ASSERT_TRUE(Exchange(device, session, StateAt(1, {0, 0, 0.06})));
   ASSERT_TRUE(Exchange(device, second, StateAt(1, {0, 0, 0.06})));
+  const int first_index = harness_.sessions.FindById(session.id);
+  const int second_index = harness_.sessions.FindById(second.id);
+  ASSERT_GE(first_index, 0);
+  ASSERT_GE(second_index, 0);
 
   // From here the test itself uses only preallocated buffers.
   std::array<uint8_t, kMaxDatagramSize> out;
@@ -339,9 +377,15 @@ TEST_F(RealtimeChannelTest, TheRealtimePathAllocatesNothing) {
       if (++answered % 2 == 0) break;
     }
   }
-  // Then silence long enough for both watchdogs to ramp to zero.
-  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  // Then silence until both watchdogs have ramped to zero (published: ramping, no force).
+  const auto ramped = [&](int index) {
+    const SessionTelemetrySample telemetry = harness_.sessions.slot(index).published.Read();
+    return telemetry.state == SlotState::kRamping && telemetry.f_W.isZero(0);
+  };
+  const bool both_ramped = WaitUntil([&] { return ramped(first_index) && ramped(second_index); });
   EXPECT_EQ(hapticd::testing::AllocationCount() - before, 0);
+  EXPECT_TRUE(both_ramped) << "the watchdogs did not ramp both forces to zero within "
+                           << kDeadlineMs << " ms";
   EXPECT_GE(answered, 900);
   EXPECT_GE(harness_.realtime.counters().bad_tag.load(), 900u);
   EXPECT_GE(harness_.realtime.counters().replayed.load(), 900u);

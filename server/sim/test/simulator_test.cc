@@ -109,6 +109,7 @@ TEST(Simulator, FreeSpaceIsTheMassSpringDamper) {
   const double m = 0.35;
   const double a = 5.5 / (2 * m);
   const double wd = std::sqrt(300 / m - a * a);
+  ASSERT_EQ(run.rows.size(), 1000u);  // 1 s at 1 kHz: the loop below checks every tick
   for (const TraceRow& row : run.rows) {
     const double decay = std::exp(-a * row.t);
     const Vector3 x = p + decay * (std::cos(wd * row.t) + a / wd * std::sin(wd * row.t)) * amplitude;
@@ -173,6 +174,7 @@ TEST(Simulator, ObserverSeesTheHeldForcesWork) {
 // energy_j counts the force on the hand, -f_hand, over the displacement.
 TEST(Simulator, AdmittanceTracksThePoseCommand) {
   const SimRun run = Simulate({"device.mode=admittance", "device.virtual_mass=0.5", "device.virtual_damping=10"});
+  ASSERT_EQ(run.rows.size(), 1000u);  // 1 s at 1 kHz: the loops below check every tick
   for (size_t k = 0; k + 1 < run.rows.size(); ++k) {
     ASSERT_EQ(run.rows[k + 1].p_device_W, run.rows[k].avatar_W) << k;
     ASSERT_EQ(run.rows[k + 1].v_device_W, (run.rows[k + 1].p_device_W - run.rows[k].p_device_W) / (1 / 1000.0)) << k;
