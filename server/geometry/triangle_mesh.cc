@@ -247,7 +247,8 @@ void TriangleMesh::DropRepeatedTriangles() {
 // triangles; a shell at an even depth bounds a body and must have positive volume, at
 // an odd depth a cavity and negative volume. A shell that must change sign has all
 // its flip bits inverted. Shells whose box cannot hold that centroid are skipped; past
-// kMaxNestingWork triangle visits the remaining shells count as not nested (outward).
+// kMaxNestingWork box tests and triangle visits the remaining shells count as not
+// nested (outward), and nesting_checked() says so.
 void TriangleMesh::OrientShells() {
   const int num = num_triangles();
   // the neighbour across each edge slot, and whether the two run the edge the same way
@@ -270,16 +271,13 @@ void TriangleMesh::OrientShells() {
 
   // flip bits and shells, breadth first
   std::vector<signed char> flip(num, -1);
-  std::vector<int> shell_of(num, -1);
   std::vector<int> shell_start;  // into order: the triangles of each shell in turn
   std::vector<int> order;
   order.reserve(nondegenerate_.size());
   for (int seed : nondegenerate_) {
     if (flip[seed] >= 0) continue;
-    const int shell = static_cast<int>(shell_start.size());
     shell_start.push_back(static_cast<int>(order.size()));
     flip[seed] = 0;
-    shell_of[seed] = shell;
     order.push_back(seed);
     for (size_t next = shell_start.back(); next < order.size(); ++next) {
       const int t = order[next];
@@ -288,7 +286,6 @@ void TriangleMesh::OrientShells() {
         const signed char wanted = static_cast<signed char>(flip[t] ^ same_way[3 * t + e]);
         if (flip[u] < 0) {
           flip[u] = wanted;
-          shell_of[u] = shell;
           order.push_back(u);
         } else if (flip[u] != wanted) {
           closure_ = MeshClosure::kNonOrientable;
@@ -300,6 +297,7 @@ void TriangleMesh::OrientShells() {
   const int num_shells = static_cast<int>(shell_start.size());
   shell_start.push_back(static_cast<int>(order.size()));
   closure_ = MeshClosure::kClosed;
+  num_shells_ = num_shells;
 
   // each shell's corners after flipping, its volume (six times, about its first corner)
   auto corners = [&](int t) {
@@ -318,17 +316,24 @@ void TriangleMesh::OrientShells() {
     }
   }
 
-  // nesting depth of each shell among the others, then the sign it must have
+  // nesting depth of each shell among the others; each box test and each triangle
+  // visited counts against the work bound
   constexpr long long kMaxNestingWork = 1LL << 25;
   long long work = 0;
-  for (int s = 0; s < num_shells; ++s) {
+  std::vector<char> cavity(num_shells, 0);
+  for (int s = 0; s < num_shells && num_shells > 1 && nesting_checked_; ++s) {
     int depth = 0;
     const Triangle probe = corners(order[shell_start[s]]);
     const Vector3 p = (probe.v0 + probe.v1 + probe.v2) / 3;
-    for (int other = 0; other < num_shells && num_shells > 1; ++other) {
-      if (other == s || volume[other] == 0 || !box[other].Contains(p)) continue;
+    for (int other = 0; other < num_shells && nesting_checked_; ++other) {
+      if (other == s || volume[other] == 0) continue;
+      if (++work > kMaxNestingWork) nesting_checked_ = false;
+      if (!nesting_checked_ || !box[other].Contains(p)) continue;
       work += shell_start[other + 1] - shell_start[other];
-      if (work > kMaxNestingWork) break;
+      if (work > kMaxNestingWork) {
+        nesting_checked_ = false;
+        continue;
+      }
       double angle = 0;
       for (int k = shell_start[other]; k < shell_start[other + 1]; ++k) {
         angle += CalcSolidAngle(p, corners(order[k]));
@@ -336,11 +341,14 @@ void TriangleMesh::OrientShells() {
       const double winding = (volume[other] > 0 ? 1 : -1) * angle / (4 * std::numbers::pi);
       depth += static_cast<int>(std::lround(winding));
     }
+    cavity[s] = depth % 2 != 0;
+  }
+  // past the work bound: none counts as a cavity, every shell is turned outwards
+  if (!nesting_checked_) cavity.assign(num_shells, 0);
+  for (int s = 0; s < num_shells; ++s) {
     // a shell enclosing no volume has no side to turn outwards
-    const bool cavity = depth % 2 != 0;
-    if (volume[s] != 0 && (volume[s] < 0) != cavity) {
-      for (int k = shell_start[s]; k < shell_start[s + 1]; ++k) flip[order[k]] ^= 1;
-    }
+    if (volume[s] == 0 || (volume[s] < 0) == (cavity[s] != 0)) continue;
+    for (int k = shell_start[s]; k < shell_start[s + 1]; ++k) flip[order[k]] ^= 1;
   }
 
   // rewind: corners 1 and 2 swapped

@@ -88,6 +88,12 @@ class TriangleMesh {
   // Triangles whose winding creation reversed (0 unless closed): a shell given inside
   // out, or triangles wound against their neighbours.
   int num_rewound_triangles() const { return num_rewound_; }
+  // Closed shells (connected components), and whether each one's nesting among the
+  // others was decided: false when there were so many shells inside each other's boxes
+  // that the check would have cost more than about 3e7 triangle visits; the shells not
+  // checked were each turned outwards, as if none were a cavity.
+  int num_shells() const { return num_shells_; }
+  bool nesting_checked() const { return nesting_checked_; }
   // Signed volume enclosed, (1/6) sum v0 . (v1 x v2) over the non-degenerate
   // triangles: positive for a closed mesh (its normals point outwards), unless its
   // shells enclose no volume at all.
@@ -122,6 +128,8 @@ class TriangleMesh {
   int num_repeated_ = 0;
   MeshClosure closure_ = MeshClosure::kOpen;
   int num_rewound_ = 0;
+  int num_shells_ = 0;
+  bool nesting_checked_ = true;
   Aabb bounds_;
   double signed_volume_ = 0;
   std::vector<Vector3> face_normals_;

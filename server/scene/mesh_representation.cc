@@ -621,6 +621,11 @@ void DescribeMesh(const TriangleMesh& mesh, RepresentationChoice& choice) {
                               std::to_string(mesh.nondegenerate_triangles().size()) +
                               " triangles so that the mesh's normals point out of its solid");
   }
+  if (!mesh.nesting_checked()) {
+    choice.warnings.push_back("the mesh has " + std::to_string(mesh.num_shells()) +
+                              " closed shells, too many inside each other's bounds to tell which are "
+                              "cavities: each was turned to face outwards");
+  }
   if (!mesh.is_closed()) {
     choice.warnings.push_back(
         std::string("the mesh is ") + std::string(geometry::MeshClosureName(mesh.closure())) +

@@ -265,6 +265,29 @@ TEST(TriangleMesh, ANestedShellIsACavity) {
   EXPECT_NEAR(beside.signed_volume(), outer.signed_volume() + inner.signed_volume(), 1e-12);
 }
 
+// Past the nesting check's work bound (about 3e7 box tests and triangle visits) every
+// shell is turned outwards and the mesh says it was not checked: here 600 small
+// tetrahedra, given inside out, inside a sphere of 65k triangles.
+TEST(TriangleMesh, TooManyNestedShellsAreEachTurnedOutwards) {
+  const TriangleMesh sphere = MakeIcosphere(57, 10.0);
+  std::vector<Vector3> vertices = sphere.vertices();
+  std::vector<Indices> triangles = sphere.triangles();
+  for (int i = 0; i < 600; ++i) {
+    const int base = static_cast<int>(vertices.size());
+    const Vector3 at(-5 + 0.4 * (i % 25), -5 + 0.4 * (i / 25), 0);
+    for (const Vector3& v : kTetraVertices) vertices.push_back(at + 0.1 * v);
+    for (Indices t : kTetraTriangles) triangles.push_back({base + t[0], base + t[2], base + t[1]});
+  }
+  const TriangleMesh mesh(vertices, triangles);
+  EXPECT_TRUE(mesh.is_closed());
+  EXPECT_EQ(mesh.num_shells(), 601);
+  EXPECT_FALSE(mesh.nesting_checked());
+  EXPECT_EQ(mesh.num_rewound_triangles(), 600 * 4);
+  EXPECT_NEAR(mesh.signed_volume(), sphere.signed_volume() + 600 * (0.001 / 6), 1e-9);
+  // a few shells are checked within the bound
+  EXPECT_TRUE(Merge(sphere, MakeIcosphere(3, 0.5), false, false).nesting_checked());
+}
+
 // Against the generator's outward winding as oracle: closed meshes with random
 // triangles flipped (and a random rigid placement) come back wound exactly as
 // generated.
