@@ -265,6 +265,29 @@ def test_a_vanished_device_is_ramped_to_zero_and_reclaimed(client):
     assert client.stats().counters.sessions_timed_out == timed_out + 1
 
 
+def test_a_device_is_told_when_its_session_ends(client):
+    # Closed by its client, or timed out: the device's next state is answered "ended"
+    # (it used to get silence, which it could not tell from packet loss).
+    info = client.open_session("impedance", start=(0, 0, TOP + 0.02), session_timeout_s=0.4)
+    with hapticd.DeviceSession(info) as device:
+        assert press(device, (0, 0), 0.002).force[2] == pytest.approx(4.0, rel=0.01)
+        client.close_session(info.session_id)
+        assert wait_until(
+            lambda: info.session_id not in {s.session_id for s in client.stats().sessions}, 3.0
+        )
+        with pytest.raises(hapticd.SessionEnded) as ended:
+            device.exchange((0, 0, TOP + 0.01), timeout_s=1.0)
+        assert ended.value.reason == "closed" and ended.value.session_id == info.session_id
+    quiet = client.open_session("impedance", start=(0, 0, TOP + 0.02), session_timeout_s=0.4)
+    with hapticd.DeviceSession(quiet) as device:
+        assert device.exchange((0, 0, TOP + 0.01), timeout_s=1.0) is not None
+        assert wait_until(
+            lambda: quiet.session_id not in {s.session_id for s in client.stats().sessions}, 3.0
+        )
+        with pytest.raises(hapticd.SessionEnded, match="timed_out"):
+            device.exchange((0, 0, TOP + 0.01), timeout_s=1.0)
+
+
 UPLOAD_SCRIPT = """
 import sys, time
 import numpy as np

@@ -32,7 +32,7 @@ std::string ReadToken(const std::string& path) {
   std::ifstream file(path);
   std::string token;
   if (!file || !std::getline(file, token)) {
-    throw std::runtime_error(fmt::format("--access-token-file {} cannot be read", path));
+    throw std::runtime_error(fmt::format("the token file {} cannot be read", path));
   }
   if (token.size() < 16) {
     throw std::runtime_error(fmt::format("the access token in {} has {} characters; use at least 16", path,
@@ -60,6 +60,12 @@ struct Server::Impl {
     service_options.udp_endpoint =
         FormatEndpoint(realtime.local_endpoint().address(), realtime.local_endpoint().port());
     if (!options.access_token_file.empty()) service_options.access_token = ReadToken(options.access_token_file);
+    if (!options.observer_token_file.empty()) {
+      service_options.observer_token = ReadToken(options.observer_token_file);
+      if (service_options.observer_token == service_options.access_token) {
+        throw std::runtime_error("--observer-token-file holds the operator's token; give observers their own");
+      }
+    }
     return service_options;
   }
 

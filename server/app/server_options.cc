@@ -28,7 +28,7 @@ std::size_t ReadCount(std::string_view option, std::string_view text, std::size_
 // Every option that takes a value; anything else starting with -- is unknown.
 constexpr std::string_view kValueOptions[] = {
     "--host", "--tcp-port", "--udp-port", "--scene", "--ray-backend", "--max-sessions",
-    "--realtime-priority", "--tls-cert", "--tls-key", "--access-token-file", "--log-level",
+    "--realtime-priority", "--tls-cert", "--tls-key", "--access-token-file", "--observer-token-file", "--log-level",
     "--max-objects", "--max-mesh-triangles", "--max-scene-triangles", "--max-connections",
     "--max-request-bytes", "--idle-timeout"};
 
@@ -59,7 +59,12 @@ options:
                             0: normal scheduling; needs CAP_SYS_NICE, else normal)
   --tls-cert FILE           PEM certificate chain: TLS on the control channel
   --tls-key FILE            PEM private key for --tls-cert
-  --access-token-file FILE  its first line is the token clients send in Hello
+  --access-token-file FILE  its first line is the token clients send in Hello (the
+                            operator's: every request); with a token, every
+                            connection, loopback too, must Hello with one first
+  --observer-token-file FILE  its first line is a second token, for connections that
+                            may only read (scene, queries, telemetry, stats); needs
+                            --access-token-file
   --log-level LEVEL         debug, info, warning or error (default info)
   --help                    this text
 
@@ -116,6 +121,8 @@ ServerOptions ParseServerOptions(std::span<const std::string_view> args) {
       options.tls_key = value;
     } else if (option == "--access-token-file") {
       options.access_token_file = value;
+    } else if (option == "--observer-token-file") {
+      options.observer_token_file = value;
     } else if (option == "--log-level") {
       options.log_level = net::ParseLogLevel(value);
       if (options.log_level == net::LogLevel::kCount) {
@@ -140,6 +147,9 @@ ServerOptions ParseServerOptions(std::span<const std::string_view> args) {
   std::error_code error;
   const auto address = asio::ip::make_address(options.host, error);
   if (error) throw OptionsError(fmt::format("--host is \"{}\"; it is not an IP address", options.host));
+  if (!options.observer_token_file.empty() && options.access_token_file.empty()) {
+    throw OptionsError("--observer-token-file needs --access-token-file (the operator's token)");
+  }
   if (options.tls_certificate.empty() != options.tls_key.empty()) {
     throw OptionsError("--tls-cert and --tls-key go together; give both or neither");
   }

@@ -30,6 +30,7 @@ struct ServerOptions {
   std::string tls_certificate;  // PEM chain; with tls_key turns TLS on
   std::string tls_key;
   std::string access_token_file;  // first line is the token clients must Hello with
+  std::string observer_token_file;  // its first line: a token for read-only connections
   net::LogLevel log_level = net::LogLevel::kInfo;
   // What one scene and one connection may take (--max-objects, --max-connections, ...).
   scene::SceneBudgets scene_budgets;

@@ -64,6 +64,7 @@ struct Shared {
   const ControlServerOptions& options;
   HelloFailures hello_failures;
   LogLimiter refusals{10, std::chrono::seconds(10)};
+  uint64_t last_connection_id = 0;
 };
 
 class ConnectionBase {
@@ -82,6 +83,7 @@ class Connection : public ConnectionBase, public std::enable_shared_from_this<Co
       : stream_(std::move(stream)), shared_(shared), peer_(std::move(peer)), address_(std::move(address)),
         refusal_(std::move(refusal)), deadline_(stream_.get_executor()) {
     state_.authenticated = authenticated;
+    state_.id = ++shared_.last_connection_id;
     ++shared_.service.connection_counters().open;
   }
 
@@ -106,6 +108,7 @@ class Connection : public ConnectionBase, public std::enable_shared_from_this<Co
     if (closed_) return;
     closed_ = true;
     --shared_.service.connection_counters().open;
+    shared_.service.ConnectionClosed(state_.id);
     deadline_.cancel();
     for (auto& [id, timer] : timers_) timer->cancel();
     timers_.clear();
@@ -323,7 +326,7 @@ class Connection : public ConnectionBase, public std::enable_shared_from_this<Co
 
 struct ControlServer::Impl {
   Impl(asio::io_context& context, ControlService& service, ControlServerOptions options)
-      : context(context), options(std::move(options)), shared{service, this->options, {}}, acceptor(context),
+      : context(context), options(std::move(options)), shared{service, this->options, {}, {10, std::chrono::seconds(10)}, 0}, acceptor(context),
         tls_context(asio::ssl::context::tls_server), accept_backoff(context) {
     if (this->options.max_frame_bytes < this->options.max_greeting_frame_bytes ||
         this->options.max_frame_bytes > kMaxFrameSize) {

@@ -24,6 +24,35 @@ constexpr double kMinTelemetryRateHz = 0.1;
 constexpr double kMaxTelemetryRateHz = 1000;
 // How long an ended session stays in telemetry after it was reclaimed.
 constexpr int64_t kEndedVisibleNs = 2'000'000'000;
+// At most this many ended sessions are listed, the latest: churn cannot grow a reply.
+constexpr std::size_t kMaxEndedListed = 64;
+
+// Constant-time comparison of equal-length strings; a length mismatch is a miss.
+bool SameSecret(std::string_view given, std::string_view secret) {
+  return !secret.empty() && given.size() == secret.size() &&
+         sodium_memcmp(given.data(), secret.data(), given.size()) == 0;
+}
+
+std::string_view RoleName(Role role) { return role == Role::kObserver ? "observer" : "operator"; }
+
+// Whether an observer may make this request: only those that read.
+bool IsReadOnly(v1::Request::BodyCase body) {
+  using R = v1::Request;
+  switch (body) {
+    case R::kHello:
+    case R::kGetScene:
+    case R::kRayCast:
+    case R::kRayCastBatch:
+    case R::kClosestPoint:
+    case R::kFindContacts:
+    case R::kSubscribe:
+    case R::kUnsubscribe:
+    case R::kGetStats:
+      return true;
+    default:
+      return false;
+  }
+}
 
 v1::SessionState ToProto(SlotState state) {
   switch (state) {
@@ -92,6 +121,12 @@ v1::Reply ControlService::Dispatch(const v1::Request& request, ConnectionState& 
     throw RequestError(v1::Error::CODE_UNAUTHENTICATED,
                        "this connection must send a Hello with the server's access token first");
   }
+  if (connection.role == Role::kObserver && !IsReadOnly(request.body_case())) {
+    const auto* field = v1::Request::descriptor()->FindFieldByNumber(static_cast<int>(request.body_case()));
+    throw RequestError(v1::Error::CODE_PERMISSION_DENIED,
+                       fmt::format("{} needs the operator's token; this connection's role is observer",
+                                   field != nullptr ? field->name() : "this request"));
+  }
   switch (request.body_case()) {
     case R::kHello: {
       // A failed Hello is the connection's last request: the transport closes it after
@@ -103,13 +138,15 @@ v1::Reply ControlService::Dispatch(const v1::Request& request, ConnectionState& 
         throw BadRequest(fmt::format("hello.protocol_version is {}; this server speaks {}",
                                      hello.protocol_version(), kProtocolVersion));
       }
-      // With a token configured every Hello must carry it, on loopback too.
+      // With a token configured every Hello must carry one, on loopback too; which one
+      // sets the connection's role.
       if (!options_.access_token.empty() || !connection.authenticated) {
-        // Constant-time comparison of equal-length strings; a length mismatch is a miss.
         const std::string& token = hello.access_token();
-        const bool match = token.size() == options_.access_token.size() &&
-                           sodium_memcmp(token.data(), options_.access_token.data(), token.size()) == 0;
-        if (!match || options_.access_token.empty()) {
+        if (SameSecret(token, options_.access_token)) {
+          connection.role = Role::kOperator;
+        } else if (SameSecret(token, options_.observer_token)) {
+          connection.role = Role::kObserver;
+        } else {
           connection.close_after_reply = true;
           ++connection_counters_.hello_failures;
           throw RequestError(v1::Error::CODE_UNAUTHENTICATED,
@@ -122,10 +159,11 @@ v1::Reply ControlService::Dispatch(const v1::Request& request, ConnectionState& 
       reply.mutable_hello()->set_protocol_version(kProtocolVersion);
       reply.mutable_hello()->set_server_name(options_.server_name);
       reply.mutable_hello()->set_udp_endpoint(options_.udp_endpoint);
+      reply.mutable_hello()->set_role(std::string(RoleName(connection.role)));
       return reply;
     }
-    case R::kOpenSession: return OpenSession(request.open_session());
-    case R::kCloseSession: return CloseSession(request.close_session());
+    case R::kOpenSession: return OpenSession(request.open_session(), connection);
+    case R::kCloseSession: return CloseSession(request.close_session(), connection);
     case R::kAddObject: {
       const scene::ObjectSpec spec = ReadObject(request.add_object().object(), "add_object.object");
       if (publisher_.current()->FindObject(spec.name) >= 0) {
@@ -232,7 +270,7 @@ v1::Reply ControlService::Done() {
   return reply;
 }
 
-v1::Reply ControlService::OpenSession(const v1::OpenSession& open) {
+v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const ConnectionState& connection) {
   Vector3 start_W;
   double timeout_s = 0;
   const force::SessionSettings settings = ReadSessionRequest(open, start_W, timeout_s);
@@ -247,6 +285,7 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open) {
   SessionSlot& slot = sessions_.slot(index);
   slot.id = id;
   slot.key = MakeSessionKey();
+  slot.owner_connection = connection.id;
   slot.period_ns = static_cast<int64_t>(std::llround(1e9 / settings.device.rate_hz));
   slot.timeout_ns = static_cast<int64_t>(std::llround(timeout_s * 1e9));
   slot.render.emplace(settings);
@@ -282,15 +321,33 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open) {
   return reply;
 }
 
-v1::Reply ControlService::CloseSession(const v1::CloseSession& close) {
+v1::Reply ControlService::CloseSession(const v1::CloseSession& close, const ConnectionState& connection) {
   const int index = sessions_.FindById(close.session_id());
   if (index < 0 || !IsLive(sessions_.slot(index).state.load(std::memory_order_acquire))) {
     throw RequestError(v1::Error::CODE_NOT_FOUND,
                        fmt::format("close_session.session_id is {}; no open session has that id",
                                    SessionName(close.session_id())));
   }
-  sessions_.slot(index).close_requested.store(true, std::memory_order_release);
+  SessionSlot& slot = sessions_.slot(index);
+  // its own connection, or whoever holds its key (the same client, reconnected)
+  const bool owner = slot.owner_connection != 0 && slot.owner_connection == connection.id;
+  const std::string_view key(reinterpret_cast<const char*>(slot.key.data()), slot.key.size());
+  if (!owner && !SameSecret(close.session_key(), key)) {
+    throw RequestError(v1::Error::CODE_PERMISSION_DENIED,
+                       fmt::format("close_session.session_id is {}; another connection opened it, so closing it "
+                                   "here needs its session_key",
+                                   SessionName(close.session_id())));
+  }
+  slot.close_requested.store(true, std::memory_order_release);
   return Done();
+}
+
+void ControlService::ConnectionClosed(uint64_t connection_id) {
+  if (connection_id == 0) return;
+  for (int i = 0; i < sessions_.capacity(); ++i) {
+    SessionSlot& slot = sessions_.slot(i);
+    if (slot.owner_connection == connection_id) slot.owner_connection = 0;
+  }
 }
 
 void ControlService::ReclaimSessions() {
@@ -315,7 +372,10 @@ void ControlService::ReclaimSessions() {
     ended_.push_back({slot.id, now_ns, last});
     slot.state.store(SlotState::kFree, std::memory_order_release);
   }
-  while (!ended_.empty() && now_ns - ended_.front().ended_ns > kEndedVisibleNs) ended_.pop_front();
+  while (!ended_.empty() &&
+         (now_ns - ended_.front().ended_ns > kEndedVisibleNs || ended_.size() > kMaxEndedListed)) {
+    ended_.pop_front();
+  }
 }
 
 v1::Reply ControlService::RayCast(const v1::RayCast& ray) {
@@ -389,6 +449,17 @@ v1::Reply ControlService::Subscribe(uint64_t id, const v1::Subscribe& subscribe,
                        fmt::format("this connection has {} subscriptions, the most allowed",
                                    connection.subscriptions.size()));
   }
+  // each session named must be open or lately ended: a typo would watch nothing for ever
+  for (int i = 0; i < subscribe.session_ids_size(); ++i) {
+    const uint32_t session = subscribe.session_ids(i);
+    const int index = sessions_.FindById(session);
+    const bool open = index >= 0 && sessions_.slot(index).state.load(std::memory_order_acquire) != SlotState::kFree;
+    const bool ended = std::any_of(ended_.begin(), ended_.end(), [&](const EndedSession& e) { return e.id == session; });
+    if (!open && !ended) {
+      throw RequestError(v1::Error::CODE_NOT_FOUND,
+                         fmt::format("subscribe.session_ids[{}] is {}; no session has that id", i, SessionName(session)));
+    }
+  }
   Subscription subscription{id, rate_hz, {subscribe.session_ids().begin(), subscribe.session_ids().end()}};
   v1::Reply reply;
   *reply.mutable_telemetry() = BuildTelemetry(subscription);
@@ -459,6 +530,7 @@ void ControlService::WriteCounters(v1::ServerCounters* out) const {
   out->set_connections_refused(connection_counters_.refused);
   out->set_connections_timed_out(connection_counters_.timed_out);
   out->set_hello_failures(connection_counters_.hello_failures);
+  out->set_ended_session(realtime_.ended_session.load());
 }
 
 }  // namespace hapticd::net

@@ -23,8 +23,13 @@ struct Subscription {
   std::vector<uint32_t> session_ids;  // empty: all
 };
 
+// What a connection may do: an operator everything, an observer only what reads.
+enum class Role { kOperator, kObserver };
+
 // What the service knows about the connection a request came on.
 struct ConnectionState {
+  uint64_t id = 0;  // unique per connection (the transport numbers them from 1); owns sessions
+  Role role = Role::kOperator;
   // Loopback connections start authenticated when the server has no access token;
   // otherwise a Hello with the token authenticates.
   bool authenticated = false;
@@ -47,7 +52,8 @@ struct ConnectionCounters {
 struct ServiceOptions {
   std::string server_name = "hapticd";
   std::string udp_endpoint;  // "host:port" given to devices
-  std::string access_token;  // required in Hello when a connection is not authenticated
+  std::string access_token;  // the operator's; required in Hello when a connection is not authenticated
+  std::string observer_token;  // optional, with access_token: a Hello with it makes an observer
   int max_subscriptions_per_connection = 16;
 };
 
@@ -67,6 +73,8 @@ class ControlService {
   // Frees the slots of sessions the realtime thread handed back (closed or timed out),
   // logging each. Call often (each request and from a timer).
   void ReclaimSessions();
+  // The connection closed: its sessions live on, closable from now on only with their key.
+  void ConnectionClosed(uint64_t connection_id);
 
   const ServiceOptions& options() const { return options_; }
   // Control thread only: the transport counts its connections here.
@@ -75,8 +83,8 @@ class ControlService {
  private:
   v1::Reply Dispatch(const v1::Request& request, ConnectionState& connection);
   void PublishScene();
-  v1::Reply OpenSession(const v1::OpenSession& open);
-  v1::Reply CloseSession(const v1::CloseSession& close);
+  v1::Reply OpenSession(const v1::OpenSession& open, const ConnectionState& connection);
+  v1::Reply CloseSession(const v1::CloseSession& close, const ConnectionState& connection);
   v1::Reply RayCast(const v1::RayCast& ray);
   v1::Reply ClosestPoint(const v1::ClosestPoint& query);
   v1::Reply FindContacts(const v1::FindContacts& query);

@@ -171,6 +171,21 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
   }
   const int slot_index = sessions_.FindLive(state.session_id);
   if (slot_index < 0) {
+    // an authentic state of a session that ended lately: say that it ended
+    EndedSession* ended = FindEnded(state.session_id);
+    if (ended != nullptr && CheckTag(datagram, ended->key)) {
+      counters_.ended_session.fetch_add(1, std::memory_order_relaxed);
+      std::memcpy(&ended->peer, &b.in_peer[index], message.msg_hdr.msg_namelen);
+      DeviceCommandSample command;
+      command.session_id = ended->id;
+      command.sequence = state.sequence;
+      command.echo_send_time_ns = state.send_time_ns;
+      command.scene_version = scene.version();
+      command.avatar_W = state.p_WD;
+      command.p_command_W = state.p_WD;
+      command.flags = ended->flags;
+      return QueueDatagram(command, ended->key, ended->peer, message.msg_hdr.msg_namelen, reply);
+    }
     counters_.unknown_session.fetch_add(1, std::memory_order_relaxed);
     return false;
   }
@@ -239,6 +254,7 @@ void RealtimeChannel::TickSilentSessions(int64_t now_ns) {
 
     // Closed by the control thread: hand the slot back.
     if (slot.close_requested.load(std::memory_order_acquire)) {
+      RememberEnded(slot, v1::COMMAND_FLAGS_SESSION_CLOSED);
       PublishTelemetry(slot, SlotState::kClosed);
       slot.state.store(SlotState::kClosed, std::memory_order_release);
       continue;
@@ -247,6 +263,7 @@ void RealtimeChannel::TickSilentSessions(int64_t now_ns) {
     const int64_t last_ns = state == SlotState::kWaiting ? slot.opened_ns : slot.last_state_ns;
     if (now_ns - last_ns >= slot.timeout_ns) {
       counters_.sessions_timed_out.fetch_add(1, std::memory_order_relaxed);
+      RememberEnded(slot, v1::COMMAND_FLAGS_SESSION_TIMED_OUT);
       PublishTelemetry(slot, SlotState::kTimedOut);
       slot.state.store(SlotState::kTimedOut, std::memory_order_release);
       continue;
@@ -301,18 +318,42 @@ bool RealtimeChannel::QueueCommand(SessionSlot& slot, const force::TickOutput& o
   telemetry.touched_object = output.touched_object;
   telemetry.scene_version = scene_version;
 
+  if (!QueueDatagram(command, slot.key, slot.peer, slot.peer_size, reply)) return false;
+  ++telemetry.commands_sent;
+  return true;
+}
+
+bool RealtimeChannel::QueueDatagram(const DeviceCommandSample& command, const SessionKey& key,
+                                    const sockaddr_storage& peer, socklen_t peer_size, int reply) {
   Batch& b = *batch_;
-  if (reply >= static_cast<int>(b.out_msgs.size()) || slot.peer_size == 0) return false;
-  const std::size_t size = codec_.EncodeCommand(command, slot.key, b.out_data[reply]);
+  if (reply >= static_cast<int>(b.out_msgs.size()) || peer_size == 0) return false;
+  const std::size_t size = codec_.EncodeCommand(command, key, b.out_data[reply]);
   if (size == 0) return false;
   b.out_iov[reply] = {b.out_data[reply].data(), size};
   b.out_msgs[reply] = {};
   b.out_msgs[reply].msg_hdr.msg_iov = &b.out_iov[reply];
   b.out_msgs[reply].msg_hdr.msg_iovlen = 1;
-  b.out_msgs[reply].msg_hdr.msg_name = &slot.peer;
-  b.out_msgs[reply].msg_hdr.msg_namelen = slot.peer_size;
-  ++telemetry.commands_sent;
+  // sendmmsg only reads the address
+  b.out_msgs[reply].msg_hdr.msg_name = const_cast<sockaddr_storage*>(&peer);
+  b.out_msgs[reply].msg_hdr.msg_namelen = peer_size;
   return true;
+}
+
+void RealtimeChannel::RememberEnded(const SessionSlot& slot, uint32_t flags) {
+  EndedSession& ended = ended_[next_ended_];
+  next_ended_ = (next_ended_ + 1) % kEndedRemembered;
+  ended.id = slot.id;
+  ended.key = slot.key;
+  ended.flags = flags;
+  ended.peer = slot.peer;
+}
+
+RealtimeChannel::EndedSession* RealtimeChannel::FindEnded(uint32_t id) {
+  if (id == 0) return nullptr;
+  for (EndedSession& ended : ended_) {
+    if (ended.id == id) return &ended;
+  }
+  return nullptr;
 }
 
 void RealtimeChannel::SendReplies(int count) {

@@ -12,9 +12,13 @@
 //   4. each millisecond, ticks sessions whose states stopped: the watchdog ramps their
 //      force down (sent to the last address, flagged), and a session silent for its
 //      timeout is handed back to the control thread as kTimedOut.
+// A session that ended (closed or timed out) is remembered, id and key, among the last
+// kEndedRemembered: an authentic state for it is answered with a zero command flagged
+// SESSION_CLOSED or SESSION_TIMED_OUT, so its device can tell the end from packet loss.
 // Everything it touches is preallocated when the channel or the session is created: it
 // allocates nothing, throws nothing, logs nothing and shares no lock (session_table.h,
 // snapshot_publisher.h).
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <string>
@@ -38,6 +42,8 @@ struct RealtimeCounters {
   std::atomic<uint64_t> reordered{0};
   std::atomic<uint64_t> send_errors{0};
   std::atomic<uint64_t> sessions_timed_out{0};
+  // States of a session that ended lately, answered with an ended command.
+  std::atomic<uint64_t> ended_session{0};
 };
 
 // CLOCK_MONOTONIC in ns: the clock of every timestamp the server takes.
@@ -71,6 +77,21 @@ class RealtimeChannel {
   // Encodes command into the reply batch at reply for slot's peer; false if it did not fit.
   bool QueueCommand(SessionSlot& slot, const force::TickOutput& output, uint64_t sequence,
                     uint64_t echo_ns, uint64_t scene_version, uint32_t flags, int reply);
+  // Encodes command, tagged with key, into the reply batch at reply for peer.
+  bool QueueDatagram(const DeviceCommandSample& command, const SessionKey& key, const sockaddr_storage& peer,
+                     socklen_t peer_size, int reply);
+
+  // A session that ended, as its device's late states are answered.
+  struct EndedSession {
+    uint32_t id = 0;  // 0: none
+    SessionKey key{};
+    uint32_t flags = 0;  // COMMAND_FLAGS_SESSION_CLOSED or _TIMED_OUT
+    sockaddr_storage peer{};
+  };
+  static constexpr int kEndedRemembered = 64;
+  void RememberEnded(const SessionSlot& slot, uint32_t flags);
+  // The remembered session with this id, or nullptr.
+  EndedSession* FindEnded(uint32_t id);
   void SendReplies(int count);
   // Publishes the slot's telemetry as being in state (before the state itself is
   // handed over, so the control thread reads the final sample).
@@ -88,6 +109,8 @@ class RealtimeChannel {
 
   struct Batch;  // the recvmmsg/sendmmsg buffers
   std::unique_ptr<Batch> batch_;
+  std::array<EndedSession, kEndedRemembered> ended_{};
+  int next_ended_ = 0;
 };
 
 }  // namespace hapticd::net

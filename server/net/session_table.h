@@ -85,6 +85,7 @@ struct SessionSlot {
 
   uint32_t id = 0;
   SessionKey key{};
+  uint64_t owner_connection = 0;  // control thread only: who may close it without the key (0: nobody)
   int64_t period_ns = 1'000'000;
   int64_t timeout_ns = 2'000'000'000;
   std::optional<force::RenderSession> render;

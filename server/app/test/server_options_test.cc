@@ -75,6 +75,8 @@ TEST(ServerOptions, LeavingLoopbackNeedsTlsAndAToken) {
   EXPECT_NE(ErrorOf({"--host", "10.0.0.1", "--tls-cert", "c", "--tls-key", "k"}), "");
   EXPECT_EQ(ErrorOf({"--host", "10.0.0.1", "--tls-cert", "c", "--tls-key", "k", "--access-token-file", "t"}), "");
   EXPECT_EQ(ErrorOf({"--host", "::1"}), "");
+  EXPECT_EQ(ErrorOf({"--observer-token-file", "o"}), "--observer-token-file needs --access-token-file (the operator's token)");
+  EXPECT_EQ(ErrorOf({"--observer-token-file", "o", "--access-token-file", "t"}), "");
 }
 
 TEST(DefaultScene, BuildsWithItsMeshKeptAsAMesh) {

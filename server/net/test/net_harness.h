@@ -38,6 +38,7 @@ struct Harness {
         realtime(asio::ip::udp::endpoint(asio::ip::make_address("127.0.0.1"), 0), sessions, publisher),
         service(MakeTestScene(), publisher, sessions, realtime.counters(), Options()) {
     connection.authenticated = true;
+    connection.id = 1;
   }
 
   ServiceOptions Options() {

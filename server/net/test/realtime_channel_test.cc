@@ -235,8 +235,13 @@ TEST_F(RealtimeChannelTest, SilenceRampsTheForceToZeroThenTheSessionTimesOut) {
   ASSERT_EQ(telemetry.sessions_size(), 1);
   EXPECT_EQ(telemetry.sessions(0).state(), v1::SESSION_STATE_TIMED_OUT);
   EXPECT_EQ(telemetry.sessions(0).force().z(), 0);
-  EXPECT_FALSE(Exchange(device, session, StateAt(3, {0, 0, 0.04}), kQuietMs));
-  ExpectCountReaches(harness_.realtime.counters().unknown_session, 1, "unknown_session");
+  // its device's next state is answered: the session timed out, zero force
+  const auto ended = Exchange(device, session, StateAt(3, {0, 0, 0.04}));
+  ASSERT_TRUE(ended);
+  EXPECT_EQ(ended->flags, static_cast<uint32_t>(v1::COMMAND_FLAGS_SESSION_TIMED_OUT));
+  EXPECT_EQ(ended->f_W, Vector3::Zero());
+  EXPECT_EQ(harness_.realtime.counters().ended_session.load(), 1u);
+  EXPECT_EQ(harness_.realtime.counters().unknown_session.load(), 0u);
 }
 
 TEST_F(RealtimeChannelTest, ClosedSessionsAreReclaimed) {
@@ -253,7 +258,9 @@ TEST_F(RealtimeChannelTest, ClosedSessionsAreReclaimed) {
       << "the closed session was not handed back within " << kDeadlineMs << " ms";
   harness_.service.ReclaimSessions();
   EXPECT_EQ(harness_.sessions.FindById(session.id), -1);
-  EXPECT_FALSE(Exchange(device, session, StateAt(2, {0, 0, 0.1}), kQuietMs));
+  const auto ended = Exchange(device, session, StateAt(2, {0, 0, 0.1}));
+  ASSERT_TRUE(ended);
+  EXPECT_EQ(ended->flags, static_cast<uint32_t>(v1::COMMAND_FLAGS_SESSION_CLOSED));
   // Closing it again names the id.
   const v1::Reply again = harness_.Call(close);
   ASSERT_TRUE(again.has_error());

@@ -23,6 +23,7 @@ from hapticd.errors import (
     LocalError,
     ProtocolError,
     RemoteError,
+    SessionEnded,
     Timeout,
 )
 from hapticd.objects import (
@@ -81,6 +82,7 @@ __all__ = [
     "RttSummary",
     "SceneInfo",
     "ServerCounters",
+    "SessionEnded",
     "SessionInfo",
     "SessionTelemetry",
     "Shape",

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike
 
 from hapticd._datagram import MAX_DATAGRAM_BYTES, decode_command, encode_state
 from hapticd._validate import FloatArray
-from hapticd.errors import ConnectionClosed, HapticdError, LocalError, ProtocolError
+from hapticd.errors import ConnectionClosed, HapticdError, LocalError, ProtocolError, SessionEnded
 from hapticd.results import SessionInfo
 from hapticd.v1 import hapticd_pb2 as pb
 
@@ -240,6 +240,7 @@ class DeviceSession:
                 self.counters.lost += 1
                 return None
             message, received_ns = received
+            self._raise_if_ended(message)
             # a sequence never sent is bad; an older state's or the watchdog's is stale
             if message.sequence > sequence:
                 self.counters.bad += 1
@@ -254,7 +255,17 @@ class DeviceSession:
         the watchdog after states stop; it records no round trip (rtt_ns 0) and counts
         nothing but bad datagrams."""
         received = self._receive_verified(time.monotonic() + timeout_s, "a command")
-        return None if received is None else _command(received[0], 0)
+        if received is None:
+            return None
+        self._raise_if_ended(received[0])
+        return _command(received[0], 0)
+
+    def _raise_if_ended(self, message: pb.DeviceCommand) -> None:
+        """SessionEnded when the server says this session has ended."""
+        if message.flags & pb.COMMAND_FLAGS_SESSION_CLOSED:
+            raise SessionEnded(message.session_id, "closed")
+        if message.flags & pb.COMMAND_FLAGS_SESSION_TIMED_OUT:
+            raise SessionEnded(message.session_id, "timed_out")
 
     def _accept(self, message: pb.DeviceCommand, received_ns: int) -> Command:
         """Records a fresh command and its round trip."""

@@ -6,6 +6,8 @@
     ├── ProtocolError      the server (or whatever is on the other end) broke the protocol
     ├── ConnectionClosed   the connection ended (the server hung up or died), or could
     │                      not be made; every later call on it says so again, and why
+    ├── SessionEnded       the server says a device session has ended (closed or timed
+    │                      out): its states are no longer rendered
     └── Timeout            no answer within the timeout the caller gave (only then)
 
 LocalError is also a ValueError and Timeout a TimeoutError, so code that catches the
@@ -44,6 +46,16 @@ class ProtocolError(HapticdError):
 
 class ConnectionClosed(HapticdError):
     """The connection could not be made, or ended while a reply was awaited."""
+
+
+class SessionEnded(HapticdError):
+    """The server answered a device's state saying its session has ended: `reason` is
+    "closed" (CloseSession) or "timed_out" (silent for its timeout)."""
+
+    def __init__(self, session_id: int, reason: str) -> None:
+        self.session_id = session_id
+        self.reason = reason
+        super().__init__(f"session {session_id:08x} has ended on the server ({reason})")
 
 
 class Timeout(HapticdError, TimeoutError):
