@@ -359,19 +359,18 @@ def refuse_constant(name):
 
 
 def test_scene_show_prints_strict_json_for_infinite_values(client, server):
-    """A plane's bounds are infinite, and a flat mesh pinned as a sphere has an
-    unbounded representation error: JSON has neither, so both print as "inf"."""
+    """A plane's bounds are infinite: JSON has no infinity, so they print as "inf". (A
+    flat mesh pinned as a sphere, whose error has no bound, is refused, naming the pin.)"""
     client.clear_scene()
     client.add_plane("floor")
     flat = [[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0]]
-    client.add_mesh("flat", flat, [[0, 1, 2]], "sphere", position=(0, 0, 0.5))
-    assert math.isinf(client.scene().object("flat").representation_error)
+    with pytest.raises(hapticd.RemoteError, match=r"shape\.pin"):
+        client.add_mesh("flat", flat, [[0, 1, 2]], "sphere", position=(0, 0, 0.5))
     code, out, err = run_cli("scene", "show", "--server", server.tcp)
     assert code == 0, err
     shown = json.loads(out, parse_constant=refuse_constant)
     objects = {obj["name"]: obj for obj in shown["objects"]}
-    assert objects["flat"]["representation"] == "sphere"
-    assert objects["flat"]["representation_error"] == "inf"
+    assert set(objects) == {"floor"}
     assert objects["floor"]["bounds_min"] == ["-inf", "-inf", "-inf"]
     assert objects["floor"]["bounds_max"] == ["inf", "inf", 0.0]
 
