@@ -95,7 +95,8 @@ void CheckReplyFrame(const v1::Reply& reply) {
 
 void CheckError(const v1::Reply& reply) {
   const v1::Error& error = reply.error();
-  FUZZ_CHECK(error.code() > v1::Error::CODE_UNSPECIFIED && error.code() < v1::Error::CODE_INTERNAL,
+  FUZZ_CHECK(v1::Error::Code_IsValid(error.code()) && error.code() != v1::Error::CODE_UNSPECIFIED &&
+                 error.code() != v1::Error::CODE_INTERNAL,
              "error code %d: %s", static_cast<int>(error.code()), error.message().c_str());
   FUZZ_CHECK(!error.message().empty(), "an error reply (code %d) without a message", static_cast<int>(error.code()));
 }
