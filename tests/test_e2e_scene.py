@@ -12,6 +12,7 @@ import ssl
 import struct
 import subprocess
 import sys
+import time
 
 import hapticd
 import numpy as np
@@ -133,11 +134,21 @@ def test_edits_change_the_scene_and_bump_its_version(shapes_scene):
     assert client.ray_cast((0.3, 0.3, 1), (0, 0, -1)).distance == pytest.approx(1 - 0.16)
     assert client.set_material("box", {"stiffness": 500, "damping": 1}) == version + 2
     assert client.scene().object("box").material.stiffness == 500
-    # a kinematic object moves
+    # a kinematic object is moved, and then moves by its velocity until it is stopped:
+    # after a pause it has gone v times the pause, within the times the calls took
     client.add_sphere("puck", 0.01, position=(0.2, 0.2, 0.01), kinematic=True, material=MATERIAL)
+    before_move = time.monotonic()
     client.move_kinematic("puck", (0.25, 0.2, 0.01), velocity=(0.1, 0, 0))
-    assert np.allclose(client.scene().object("puck").pose.position, [0.25, 0.2, 0.01], atol=1e-3)
-    assert client.remove_object("tetra") == version + 5
+    after_move = time.monotonic()
+    time.sleep(0.3)
+    before_look = time.monotonic()
+    x = client.scene().object("puck").pose.position[0]
+    after_look = time.monotonic()
+    assert 0.25 + 0.1 * (before_look - after_move) - 2e-4 <= x <= 0.25 + 0.1 * (after_look - before_move) + 2e-4
+    stopped = client.move_kinematic("puck", (0.3, 0.2, 0.01))
+    time.sleep(0.05)
+    assert np.allclose(client.scene().object("puck").pose.position, [0.3, 0.2, 0.01], atol=1e-12)
+    assert client.remove_object("tetra") == stopped + 1
     assert "tetra" not in {info.name for info in client.scene().objects}
     assert not client.ray_cast((0.02, 0.32, 1), (0, 0, -1)).object == "tetra"
     client.clear_scene()

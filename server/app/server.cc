@@ -53,6 +53,7 @@ struct Server::Impl {
         service(std::move(initial), publisher, sessions, realtime.counters(), MakeServiceOptions(options)),
         control(context, service, MakeControlOptions(options)),
         housekeeping(context),
+        kinematics(context),
         signals(context, SIGINT, SIGTERM) {}
 
   net::ServiceOptions MakeServiceOptions(const ServerOptions& options) {
@@ -78,6 +79,20 @@ struct Server::Impl {
     control_options.max_frame_bytes = options.max_request_bytes;
     control_options.idle_timeout = std::chrono::seconds(options.idle_timeout_s);
     return control_options;
+  }
+
+  // Every millisecond: kinematic objects move by their velocities (a new snapshot only
+  // when one moves), over the time that really passed.
+  void MoveKinematics() {
+    kinematics.expires_at(kinematics.expiry() + 1ms);
+    kinematics.async_wait([this](std::error_code error) {
+      if (error) return;
+      const auto now = std::chrono::steady_clock::now();
+      const double dt = std::chrono::duration<double>(now - last_kinematics).count();
+      last_kinematics = now;
+      service.AdvanceKinematic(dt);
+      MoveKinematics();
+    });
   }
 
   // Every 50 ms: hand back finished sessions' slots; every 5 s: report the realtime
@@ -112,6 +127,8 @@ struct Server::Impl {
   net::ControlService service;
   net::ControlServer control;
   asio::steady_timer housekeeping;
+  asio::steady_timer kinematics;
+  std::chrono::steady_clock::time_point last_kinematics;
   asio::signal_set signals;
   uint64_t housekeeping_ticks = 0;
   uint64_t reported_drops = 0;
@@ -137,6 +154,7 @@ void Server::Run() {
     if (error) return;
     Log(LogLevel::kInfo, "{} received; stopping", signal == SIGINT ? "SIGINT" : "SIGTERM");
     impl.housekeeping.cancel();
+    impl.kinematics.cancel();
     impl.control.Stop();
     impl.realtime.Stop();
   });
@@ -148,6 +166,9 @@ void Server::Run() {
   }
   impl.control.Start();
   impl.Housekeep();
+  impl.last_kinematics = std::chrono::steady_clock::now();
+  impl.kinematics.expires_at(impl.last_kinematics);
+  impl.MoveKinematics();
   Log(LogLevel::kInfo, "serving {} ({} objects, up to {} sessions)", EndpointsJson(),
       impl.publisher.current()->num_objects(), impl.sessions.capacity());
   impl.context.run();

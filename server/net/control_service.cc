@@ -342,6 +342,10 @@ v1::Reply ControlService::CloseSession(const v1::CloseSession& close, const Conn
   return Done();
 }
 
+void ControlService::AdvanceKinematic(double dt) {
+  if (builder_.AdvanceKinematic(dt)) PublishScene();
+}
+
 void ControlService::ConnectionClosed(uint64_t connection_id) {
   if (connection_id == 0) return;
   for (int i = 0; i < sessions_.capacity(); ++i) {

@@ -75,6 +75,9 @@ class ControlService {
   void ReclaimSessions();
   // The connection closed: its sessions live on, closable from now on only with their key.
   void ConnectionClosed(uint64_t connection_id);
+  // Moves kinematic objects by their velocities over dt (s) and publishes the scene when
+  // any moved. Call each millisecond (the server's kinematics timer).
+  void AdvanceKinematic(double dt);
 
   const ServiceOptions& options() const { return options_; }
   // Control thread only: the transport counts its connections here.

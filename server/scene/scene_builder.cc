@@ -335,6 +335,29 @@ void SceneBuilder::MoveKinematic(std::string_view name, const Pose& X_WB, const 
   Place(target, X_WB, v_WB, w_WB);
 }
 
+bool SceneBuilder::AdvanceKinematic(double dt) {
+  if (!(dt >= 0) || !std::isfinite(dt)) return false;
+  bool moved = false;
+  for (SceneObject& object : objects_) {
+    if (object.motion != Motion::kKinematic || (object.v_WB.isZero(0) && object.w_WB.isZero(0))) continue;
+    // back from the shape's frame S to the client's frame B, whose origin moves at v_WB
+    const Pose& X_MS = object.representation.X_MS;
+    Pose X_WB{object.X_WB.rotation * X_MS.rotation.transpose(), Vector3::Zero()};
+    const Vector3 r_W = X_WB.rotation * X_MS.translation;
+    X_WB.translation = object.X_WB.translation - r_W;
+    const Vector3 v_WB = object.v_WB - object.w_WB.cross(r_W);
+    // the rotation by w dt, exactly (Rodrigues), then the translation
+    const double angle = object.w_WB.norm() * dt;
+    if (angle > 0) {
+      X_WB.rotation = Eigen::AngleAxisd(angle, object.w_WB.normalized()).toRotationMatrix() * X_WB.rotation;
+    }
+    X_WB.translation += v_WB * dt;
+    Place(object, X_WB, v_WB, object.w_WB);
+    moved = true;
+  }
+  return moved;
+}
+
 std::shared_ptr<const SceneSnapshot> SceneBuilder::Build(uint64_t version) const {
   // 0 marks an idle reader and ~0 a free one in the publisher's slots
   if (version == 0 || version == ~uint64_t{0}) {

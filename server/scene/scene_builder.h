@@ -72,6 +72,10 @@ class SceneBuilder {
   // v_WB are those of the frame its spec was given in, as in ObjectSpec.
   void MoveKinematic(std::string_view name, const Pose& X_WB, const Vector3& v_WB,
                      const Vector3& w_WB);
+  // Moves every kinematic object by its velocity over dt (s, >= 0): the exact rigid
+  // motion at constant v_WB and w_WB of the frame its spec was given in. Returns
+  // whether anything moved (some kinematic object has a non-zero velocity).
+  bool AdvanceKinematic(double dt);
 
   const SceneSettings& settings() const { return settings_; }
   int num_objects() const { return static_cast<int>(objects_.size()); }
