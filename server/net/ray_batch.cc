@@ -41,6 +41,15 @@ void TraceMesh(const scene::SceneObject& object, const embree::EmbreeMesh& mesh,
   const geometry::TriangleMesh& triangles = mesh.mesh();
   for (std::size_t i = 0; i < n; ++i) {
     if (!hits[i].hit || hits[i].t >= best[i].t) continue;
+    // a segment touching the surface where it starts hits by the closed-set rule; a ray
+    // does only when it goes into the solid: the point sweep decides, as for one ray
+    if (hits[i].t == 0) {
+      const force::ShapeSweep sweep = force::SweepSphereShape(object.shape, a_B[i], b_B[i], 0);
+      if (sweep.hit && sweep.t < best[i].t) {
+        best[i] = {sweep.t, index, object.X_WB.ToWorld(sweep.point_B), object.X_WB.DirectionToWorld(sweep.normal_B)};
+      }
+      continue;
+    }
     const Vector3 point_B = a_B[i] + hits[i].t * (b_B[i] - a_B[i]);
     // the face normal, turned towards the segment's origin
     Vector3 normal_B = triangles.face_normal(hits[i].triangle);
