@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs every hapticd test from a bare checkout: setup, build, the GoogleTest suites,
 # the same suites under AddressSanitizer and UndefinedBehaviorSanitizer, the
-# conformance cases, and the end-to-end tests.
+# conformance cases, the end-to-end tests, and a bounded fuzzing run.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"
@@ -30,3 +30,5 @@ echo "== end-to-end tests"
 .venv/bin/python -m pytest -q tests
 echo "== end-to-end server tests against the ASan+UBSan build"
 HAPTICD_BIN=build/sanitize/bin .venv/bin/python -m pytest -q tests/test_e2e_*.py
+echo "== fuzzing, a bounded run of each target under ASan+UBSan (deploy/fuzz.sh)"
+bash deploy/fuzz.sh 20
