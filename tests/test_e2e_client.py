@@ -5,6 +5,7 @@ each get their own large replies; and when the server dies, every later call say
 connection is closed (ConnectionClosed), not that the caller misused the API."""
 
 import threading
+import time
 
 import hapticd
 import numpy as np
@@ -164,3 +165,21 @@ def test_a_server_that_dies_gives_connection_closed_every_time(bin_dir):
         if process.alive:
             process.process.kill()
             process.process.wait()
+
+
+def test_another_connection_closes_a_session_only_with_its_key(server):
+    # Sessions belong to the connection that opened them; the same client after a
+    # reconnection proves it is the owner with the session's key.
+    with hapticd.connect(server.tcp, timeout_s=10) as first:
+        info = first.open_session("impedance", start=(0, 0, 0.5), session_timeout_s=30)
+        with hapticd.connect(server.tcp, timeout_s=10) as second:
+            with pytest.raises(hapticd.RemoteError) as refused:
+                second.close_session(info.session_id)
+            assert refused.value.code == "PERMISSION_DENIED"
+            assert "needs its session_key" in refused.value.message
+            second.close_session(info.session_id, session_key=info.key)
+            # closed on the server: its owner finds nothing left to close
+            deadline = time.monotonic() + 5
+            while info.session_id in {s.session_id for s in first.stats().sessions if s.state != "closed"}:
+                assert time.monotonic() < deadline, "the session was never closed"
+                time.sleep(0.02)

@@ -550,16 +550,26 @@ class Client:
             close_session=functools.partial(self._close_own_session, opened.session_id),
         )
 
-    def close_session(self, session_id: int, *, timeout_s: float | None = None) -> None:
-        """Closes a device session. Closing one this client has closed already does
-        nothing; RemoteError NOT_FOUND when the server has no such session (never
-        opened, or reclaimed after its timeout)."""
+    def close_session(
+        self, session_id: int, *, session_key: bytes = b"", timeout_s: float | None = None
+    ) -> None:
+        """Closes a device session. A session belongs to the connection that opened it:
+        from another one (this client after reconnecting, say) pass the session_key its
+        SessionInfo holds (its key), else RemoteError PERMISSION_DENIED. Closing one this client
+        has closed already does nothing; RemoteError NOT_FOUND when the server has no
+        such session (never opened, or reclaimed after its timeout)."""
         with self._sessions_lock:
             if session_id in self._closed_sessions:
                 return
+        if not isinstance(session_key, bytes):
+            raise LocalError(f"session_key is {session_key!r}; it must be bytes")
         try:
             _body(
-                self._call("close_session", pb.CloseSession(session_id=session_id), timeout_s),
+                self._call(
+                    "close_session",
+                    pb.CloseSession(session_id=session_id, session_key=session_key),
+                    timeout_s,
+                ),
                 "done",
                 pb.Done,
             )
