@@ -116,13 +116,14 @@ void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const 
       "\"lateness_p999_us\": {:.1f}, \"lateness_max_us\": {:.1f}, \"deadline_misses\": {}, \"overruns\": {}, "
       "\"skipped_ticks\": {}, \"packets_sent\": {}, \"packets_answered\": {}, \"packets_late\": {}, "
       "\"packets_lost\": {}, \"stale\": {}, \"bad\": {}, \"send_errors\": {}, \"max_force_n\": {:.4f}, "
-      "\"contacts\": {}, \"watchdog_trips\": {}, \"cpu_s\": {:.3f}}}\n",
+      "\"contacts\": {}, \"watchdog_trips\": {}, \"session_ended\": \"{}\", \"cpu_s\": {:.3f}}}\n",
       fmt::format("{}:{}", options.target.host, options.target.port), options.echo ? "echo" : "hapticd",
       options.sessions, options.rate_hz, options.seconds, priority, r.ticks, Us(r.rtt.p50), Us(r.rtt.p90), Us(r.rtt.p99),
       Us(r.rtt.p999), Us(r.rtt.max), Us(r.wire_rtt.p50), Us(r.wire_rtt.p99), Us(r.wire_rtt.p999),
       Us(r.lateness.p50), Us(r.lateness.p99), Us(r.lateness.p999), Us(r.lateness.max), r.deadline_misses,
       r.overruns, r.skipped_ticks, r.packets.sent, r.packets.answered, r.packets.late, r.packets.lost(),
-      r.packets.stale, r.packets.bad, r.packets.send_errors, r.max_force_n, r.contacts, r.watchdog_trips, cpu_s);
+      r.packets.stale, r.packets.bad, r.packets.send_errors, r.max_force_n, r.contacts, r.watchdog_trips,
+      r.session_ended, cpu_s);
   std::fflush(stdout);
 }
 

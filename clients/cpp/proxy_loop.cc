@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "clients/cpp/tick_schedule.h"
+#include "hapticd/v1/hapticd.pb.h"
 
 namespace hapticd::proxy {
 namespace {
@@ -93,6 +94,12 @@ void ProxyLoop::ApplyCommands(double t, ProxyReport& report) {
   }
 }
 
+uint32_t ProxyLoop::EndedFlags() const {
+  uint32_t flags = 0;
+  for (const RealtimeLink* link : links_) flags |= link->ended_flags();
+  return flags;
+}
+
 ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
   const int64_t period_ns = std::llround(1e9 / options_.rate_hz);
   const int64_t total_ticks = TotalTicks(options_);
@@ -121,6 +128,11 @@ ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
     const int64_t next = schedule.NextTick(tick, finished_ns);
     report.skipped_ticks += next - tick - 1;
     tick = next;
+    // an ended session renders nothing more: stop rather than stream into silence
+    if (const uint32_t ended = EndedFlags(); ended != 0) {
+      report.session_ended = (ended & v1::COMMAND_FLAGS_SESSION_CLOSED) ? "closed" : "timed_out";
+      break;
+    }
   }
 
   // commands still on their way count as late, not lost

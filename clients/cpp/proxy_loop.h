@@ -19,6 +19,7 @@
 // before the first tick: a tick allocates nothing.
 #include <atomic>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "clients/cpp/command_watchdog.h"
@@ -59,6 +60,8 @@ struct ProxyReport {
   double max_force_n = 0;      // impedance: largest rendered force; admittance: sensed
   uint64_t watchdog_trips = 0;  // device watchdog: holds that ran out
   std::size_t dropped_samples = 0;  // samples beyond the buffers (none when sized right)
+  // The server said a session ended (closed or timed out): the run stops at once.
+  std::string session_ended;  // "", "closed" or "timed_out"
 };
 
 class ProxyLoop {
@@ -73,6 +76,8 @@ class ProxyLoop {
   ProxyReport Run(const std::atomic<bool>* stop = nullptr);
 
  private:
+  // The ended flags any link has seen (0: every session lives).
+  uint32_t EndedFlags() const;
   // The tick's states: read every device and send.
   void SendStates(double t);
   // The tick's outputs: take the commands that came, apply what the watchdogs say.

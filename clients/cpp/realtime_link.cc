@@ -10,6 +10,7 @@
 #include <system_error>
 
 #include "clients/cpp/tick_schedule.h"
+#include "hapticd/v1/hapticd.pb.h"
 
 namespace hapticd::proxy {
 namespace {
@@ -142,6 +143,8 @@ void RealtimeLink::Accept(std::span<const uint8_t> datagram, bool truncated, int
     ++counters_.bad;
     return;
   }
+  // an authentic word that the session ended: the device must stop rendering it
+  ended_flags_ |= incoming_.flags & (v1::COMMAND_FLAGS_SESSION_CLOSED | v1::COMMAND_FLAGS_SESSION_TIMED_OUT);
   const uint64_t sequence = incoming_.sequence;
   // an answer to a state never sent
   if (sequence > last_sequence_) {

@@ -90,6 +90,10 @@ class RealtimeLink {
 
   const LinkCounters& counters() const { return counters_; }
 
+  // The server said the session has ended: COMMAND_FLAGS_SESSION_CLOSED or
+  // _TIMED_OUT from an authentic command; 0 while it lives.
+  uint32_t ended_flags() const { return ended_flags_; }
+
   // Where every command's wire round trip (answered or late) is recorded; null: nowhere.
   void set_wire_rtt_sink(LatencyStats* sink) { wire_rtt_sink_ = sink; }
 
@@ -120,6 +124,7 @@ class RealtimeLink {
   net::DeviceStateSample echoed_;      // echo mode: the state read back
   int64_t rtt_ns_ = 0;
   int64_t wire_rtt_ns_ = 0;
+  uint32_t ended_flags_ = 0;
   LinkCounters counters_;
 
   std::array<uint8_t, 2048> send_buffer_;

@@ -5,11 +5,13 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <optional>
 
 #include <gtest/gtest.h>
 
 #include "clients/cpp/tick_schedule.h"
+#include "hapticd/v1/hapticd.pb.h"
 #include "server/net/test/count_allocations.h"
 
 namespace hapticd::proxy {
@@ -274,6 +276,40 @@ TEST(LinkSet, AwaitsEveryLink) {
   EXPECT_EQ(set.AwaitAll(MonotonicNowNs() + 1'000'000'000), 2);
   EXPECT_TRUE(a.answered());
   EXPECT_TRUE(b.answered());
+}
+
+// An authentic command saying the session ended is remembered (the proxy loop stops on
+// it); a forged one is not.
+TEST(RealtimeLink, RemembersThatTheServerEndedTheSession) {
+  FakeServer server;
+  const net::SessionKey key = TestKey(5);
+  RealtimeLink link(kSession, key, server.endpoint());
+  net::DeviceStateSample state;
+  ASSERT_TRUE(link.Send(state));
+  ASSERT_TRUE(server.ReceiveState(key));
+  auto send_flagged = [&](const net::SessionKey& with, uint32_t flags) {
+    net::DeviceCommandSample command;
+    command.session_id = kSession;
+    command.sequence = 1;
+    command.flags = flags;
+    std::array<uint8_t, net::kMaxDatagramSize> out;
+    server.SendRaw({out.data(), net::DatagramCodec().EncodeCommand(command, with, out)});
+  };
+  send_flagged(TestKey(9), hapticd::v1::COMMAND_FLAGS_SESSION_CLOSED);  // forged
+  send_flagged(key, hapticd::v1::COMMAND_FLAGS_NONE);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+  while (!link.Drain()) ASSERT_LT(std::chrono::steady_clock::now(), deadline);
+  EXPECT_EQ(link.ended_flags(), 0u);
+  ASSERT_TRUE(link.Send(state));
+  ASSERT_TRUE(server.ReceiveState(key));
+  net::DeviceCommandSample command;
+  command.session_id = kSession;
+  command.sequence = 2;
+  command.flags = hapticd::v1::COMMAND_FLAGS_SESSION_TIMED_OUT;
+  std::array<uint8_t, net::kMaxDatagramSize> out;
+  server.SendRaw({out.data(), net::DatagramCodec().EncodeCommand(command, key, out)});
+  while (!link.Drain()) ASSERT_LT(std::chrono::steady_clock::now(), deadline);
+  EXPECT_EQ(link.ended_flags(), static_cast<uint32_t>(hapticd::v1::COMMAND_FLAGS_SESSION_TIMED_OUT));
 }
 
 }  // namespace
