@@ -32,7 +32,7 @@ def test_the_proxy_strokes_the_default_scene(bin_dir):
     assert 0 < report["rtt_p50_us"] <= report["rtt_p99_us"] <= report["rtt_p999_us"] <= report["rtt_max_us"]
     assert 0 <= report["lateness_p50_us"] <= report["lateness_p99_us"] <= report["lateness_max_us"]
     # the hand presses into the 2000 N/m floor harder than the device's 4 N limit
-    assert report["contacts"] > 500
+    assert report["contacts"] > report["packets_answered"] // 4
     assert report["max_force_n"] == pytest.approx(4.0, abs=1e-6)
 
 
