@@ -86,7 +86,7 @@ struct Server::Impl {
   void MoveKinematics() {
     kinematics.expires_at(kinematics.expiry() + 1ms);
     kinematics.async_wait([this](std::error_code error) {
-      if (error) return;
+      if (error || stopping) return;
       const auto now = std::chrono::steady_clock::now();
       const double dt = std::chrono::duration<double>(now - last_kinematics).count();
       last_kinematics = now;
@@ -100,7 +100,7 @@ struct Server::Impl {
   void Housekeep() {
     housekeeping.expires_after(50ms);
     housekeeping.async_wait([this](std::error_code error) {
-      if (error) return;
+      if (error || stopping) return;
       service.ReclaimSessions();
       if (++housekeeping_ticks % 100 == 0) ReportDrops();
       Housekeep();
@@ -130,6 +130,9 @@ struct Server::Impl {
   asio::steady_timer kinematics;
   std::chrono::steady_clock::time_point last_kinematics;
   asio::signal_set signals;
+  // Set on SIGINT/SIGTERM: a timer whose handler was already due when it was cancelled
+  // must not arm itself again, or the io_context would never run out of work.
+  bool stopping = false;
   uint64_t housekeeping_ticks = 0;
   uint64_t reported_drops = 0;
   uint64_t reported_send_errors = 0;
@@ -153,6 +156,7 @@ void Server::Run() {
   impl.signals.async_wait([&impl](std::error_code error, int signal) {
     if (error) return;
     Log(LogLevel::kInfo, "{} received; stopping", signal == SIGINT ? "SIGINT" : "SIGTERM");
+    impl.stopping = true;
     impl.housekeeping.cancel();
     impl.kinematics.cancel();
     impl.control.Stop();

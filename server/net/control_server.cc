@@ -356,7 +356,8 @@ struct ControlServer::Impl {
 
   void Accept() {
     acceptor.async_accept([this](std::error_code error, tcp::socket socket) {
-      if (error == asio::error::operation_aborted) return;
+      // stopped: a handler already due when the acceptor closed ends here
+      if (error == asio::error::operation_aborted || !acceptor.is_open()) return;
       if (error) {
         // out of descriptors (or another transient failure): wait before the next try,
         // longer each time, rather than spin on a full table
@@ -366,7 +367,7 @@ struct ControlServer::Impl {
         accept_log.Log(LogLevel::kWarning, "accept failed: {}; retrying in {} ms", error.message(), wait.count());
         accept_backoff.expires_after(wait);
         accept_backoff.async_wait([this](std::error_code e) {
-          if (!e) Accept();
+          if (!e && acceptor.is_open()) Accept();
         });
         return;
       }
