@@ -29,6 +29,7 @@ from numpy.typing import ArrayLike
 
 from hapticd import _codec as codec
 from hapticd import _validate as check
+from hapticd._closing import ClosesOnExit
 from hapticd._connection import Connection, parse_address, remote_error
 from hapticd.errors import HapticdError, LocalError, ProtocolError, RemoteError
 from hapticd.objects import (
@@ -161,7 +162,7 @@ def _decoded(convert: Callable[[BodyT], ResultT], body: BodyT) -> ResultT:
         raise ProtocolError(f"the server sent an invalid {body.DESCRIPTOR.name}: {exc}") from exc
 
 
-class Client:
+class Client(ClosesOnExit):
     """A connection to the control channel; made by connect(). Use as a context manager
     or call close()."""
 
@@ -179,16 +180,6 @@ class Client:
 
     def __enter__(self) -> Client:
         return self
-
-    def __exit__(self, exc_type: type[BaseException] | None, *exc_info: object) -> None:
-        # an exception already on its way out says more than a failure to clean up
-        if exc_type is None:
-            self.close()
-            return
-        try:
-            self.close()
-        except HapticdError:
-            pass
 
     def close(self) -> None:
         """Closes the device sessions this client opened and has not closed (one the

@@ -27,9 +27,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from hapticd._closing import ClosesOnExit
 from hapticd._datagram import MAX_DATAGRAM_BYTES, decode_command, encode_state
 from hapticd._validate import FloatArray
-from hapticd.errors import ConnectionClosed, HapticdError, LocalError, ProtocolError, SessionEnded
+from hapticd.errors import ConnectionClosed, LocalError, ProtocolError, SessionEnded
 from hapticd.results import SessionInfo
 from hapticd.v1 import hapticd_pb2 as pb
 
@@ -107,7 +108,7 @@ def _command(message: pb.DeviceCommand, rtt_ns: int) -> Command:
     )
 
 
-class DeviceSession:
+class DeviceSession(ClosesOnExit):
     """One device's end of a session opened with Client.open_session (see the module's
     theory of operation). Not thread-safe; close() or leave its with block to end the
     session on the server too."""
@@ -129,16 +130,6 @@ class DeviceSession:
 
     def __enter__(self) -> DeviceSession:
         return self
-
-    def __exit__(self, exc_type: type[BaseException] | None, *exc_info: object) -> None:
-        # an exception already on its way out says more than a failure to clean up
-        if exc_type is None:
-            self.close()
-            return
-        try:
-            self.close()
-        except HapticdError:
-            pass
 
     def close(self) -> None:
         """Closes the UDP socket and then the server's session, through the Client that
