@@ -172,8 +172,10 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
   const int slot_index = sessions_.FindLive(state.session_id);
   if (slot_index < 0) {
     // an authentic state of a session that ended lately: say that it ended
+    // (each sequence once, increasing: a replayed datagram is not reflected)
     EndedSession* ended = FindEnded(state.session_id);
-    if (ended != nullptr && CheckTag(datagram, ended->key)) {
+    if (ended != nullptr && CheckTag(datagram, ended->key) && state.sequence > ended->last_sequence) {
+      ended->last_sequence = state.sequence;
       counters_.ended_session.fetch_add(1, std::memory_order_relaxed);
       std::memcpy(&ended->peer, &b.in_peer[index], message.msg_hdr.msg_namelen);
       DeviceCommandSample command;
@@ -346,6 +348,7 @@ void RealtimeChannel::RememberEnded(const SessionSlot& slot, uint32_t flags) {
   ended.key = slot.key;
   ended.flags = flags;
   ended.peer = slot.peer;
+  ended.last_sequence = slot.replay.newest();
 }
 
 RealtimeChannel::EndedSession* RealtimeChannel::FindEnded(uint32_t id) {

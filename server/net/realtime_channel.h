@@ -87,6 +87,7 @@ class RealtimeChannel {
     SessionKey key{};
     uint32_t flags = 0;  // COMMAND_FLAGS_SESSION_CLOSED or _TIMED_OUT
     sockaddr_storage peer{};
+    uint64_t last_sequence = 0;  // the highest state answered (or seen while it lived)
   };
   static constexpr int kEndedRemembered = 64;
   void RememberEnded(const SessionSlot& slot, uint32_t flags);

@@ -186,15 +186,20 @@ TEST(SessionOwnership, AnEndedSessionsStatesAreAnsweredAsEnded) {
   EXPECT_EQ(ended->sequence, 2u);
   EXPECT_EQ(ended->f_W, Vector3::Zero());
   EXPECT_EQ(harness.realtime.counters().ended_session.load(), 1u);
+  // the same state again (a replay) is not reflected back; a newer one is answered
+  EXPECT_FALSE(exchange(2));
+  EXPECT_FALSE(exchange(1));
+  ASSERT_TRUE(exchange(3));
+  EXPECT_EQ(harness.realtime.counters().ended_session.load(), 2u);
   // a forged state for the ended session is not answered
   DeviceStateSample forged;
   forged.session_id = opened.session_id();
-  forged.sequence = 3;
+  forged.sequence = 4;
   std::array<uint8_t, kMaxDatagramSize> buffer;
   SessionKey wrong{};
   device.SendRaw({buffer.data(), codec.EncodeState(forged, wrong, buffer)});
   EXPECT_FALSE(device.Receive(200));
-  EXPECT_EQ(harness.realtime.counters().unknown_session.load(), 1u);
+  EXPECT_EQ(harness.realtime.counters().unknown_session.load(), 3u);
 }
 
 }  // namespace
