@@ -105,7 +105,9 @@ ShapeProbe ProbeConvex(const ConvexHull& hull, const Vector3& p) {
   const geometry::SphereSupport point_support(geometry::Sphere{p, 0});
   const geometry::HullSupport hull_support(hull);
   const geometry::GjkResult gjk = geometry::CalcGjkDistance(hull_support, point_support);
-  if (!gjk.intersect && gjk.distance > 0) {
+  // a gap so small (subnormal) that its direction cannot be normalised is the surface:
+  // the faces below decide, with a unit normal
+  if (!gjk.intersect && gjk.distance > 0 && std::abs(gjk.normal.squaredNorm() - 1) < 1e-6) {
     probe.found = true;
     probe.signed_distance = gjk.distance;
     probe.point_B = gjk.point_a;
@@ -116,6 +118,8 @@ ShapeProbe ProbeConvex(const ConvexHull& hull, const Vector3& p) {
   int best_face = -1;
   for (size_t f = 0; f < hull.faces.size(); ++f) {
     const Vector3& n = hull.face_normals[f];
+    // a sliver face whose normal underflowed has no direction to push along
+    if (!(std::abs(n.squaredNorm() - 1) < 1e-6)) continue;
     const double height = n.dot(p - hull.vertices[hull.faces[f][0]]);
     if (height > best) best = height, best_face = static_cast<int>(f);
   }
@@ -157,9 +161,13 @@ ShapeProbe ProbeMesh(const MeshShape& shape, const Vector3& p, double max_distan
   probe.triangle = closest.triangle;
   probe.point_B = closest.point;
   probe.signed_distance = outside ? closest.distance : -closest.distance;
-  // on the surface the gap has no direction: the pseudo-normal is the outward normal
-  probe.normal_B = UnitOr(outside ? gap : Vector3(-gap), pseudo_normal);
-  if (closest.distance < 1e-12 * (1 + p.cwiseAbs().maxCoeff())) probe.normal_B = pseudo_normal;
+  // where opposed faces meet their pseudo-normals cancel: the face's own normal then,
+  // and some unit normal always (a contact's force needs a direction)
+  const Vector3 surface_normal =
+      UnitOr(pseudo_normal, UnitOr(mesh.face_normal(closest.triangle), Vector3::UnitZ()));
+  // on the surface the gap has no direction: the surface's normal is the outward normal
+  probe.normal_B = UnitOr(outside ? gap : Vector3(-gap), surface_normal);
+  if (closest.distance < 1e-12 * (1 + p.cwiseAbs().maxCoeff())) probe.normal_B = surface_normal;
   return probe;
 }
 

@@ -71,17 +71,6 @@ scene::ObjectSpec ConsumeMeshObject(FuzzedDataProvider& input) {
 
 bool IsUnit(const Vector3& n) { return std::abs(n.norm() - 1) <= 1e-6; }
 
-// OPEN BUG (regressions/fuzz_mesh_validation/zero-normal-on-opposed-faces, listed in
-// regressions/open.txt): a point on a mesh edge or vertex whose faces' normals cancel
-// (two triangles wound against each other, a flat mesh closed back to back) gets the
-// feature's pseudo-normal, which is then zero: ProbeShape's on-surface branch
-// (server/force/shape_queries.cc) takes FeatureNormal without a fallback. Until that
-// is fixed, a zero normal is let through there, on the surface only. Remove this (and
-// the open.txt line) with the fix.
-bool IsKnownZeroNormal(const Vector3& n, double depth, const Vector3& p_W) {
-  return n.isZero(0) && std::abs(depth) <= 1e-9 * (1 + p_W.cwiseAbs().maxCoeff());
-}
-
 // OPEN BUG (regressions/fuzz_mesh_validation/nan-sweep-on-tiny-coordinates, listed in
 // regressions/open.txt): a point swept onto a triangle with coordinates near 1e-299
 // (whose products underflow) is reported as a hit at t = NaN by SweepSphereScene.
@@ -108,7 +97,7 @@ void CheckQueries(const scene::SceneSnapshot& snapshot, bool check_sweeps) {
     if (contact.object < 0) continue;
     FUZZ_CHECK(contact.object == 0, "a contact with object %d of 1", contact.object);
     FUZZ_CHECK(std::isfinite(contact.depth) && contact.point_W.allFinite() &&
-                   (IsUnit(contact.normal_W) || IsKnownZeroNormal(contact.normal_W, contact.depth, p_W)),
+                   IsUnit(contact.normal_W),
                "a contact of depth %g at [%g %g %g] with a normal of length %g", contact.depth, contact.point_W.x(),
                contact.point_W.y(), contact.point_W.z(), contact.normal_W.norm());
   }
