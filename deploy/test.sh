@@ -30,5 +30,5 @@ echo "== end-to-end tests"
 .venv/bin/python -m pytest -q tests
 echo "== end-to-end server tests against the ASan+UBSan build"
 HAPTICD_BIN=build/sanitize/bin .venv/bin/python -m pytest -q tests/test_e2e_*.py
-echo "== fuzzing, a bounded run of each target under ASan+UBSan (deploy/fuzz.sh)"
-bash deploy/fuzz.sh 20
+echo "== fuzzing, a fixed number of executions of each target under ASan+UBSan (deploy/fuzz.sh --ci)"
+bash deploy/fuzz.sh --ci

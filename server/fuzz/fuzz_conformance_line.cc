@@ -84,7 +84,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
       b.HasMember("error") && std::string_view(b["error"].GetString()).starts_with("Cannot build an Embree scene");
   FUZZ_CHECK(a.HasMember("error") == b.HasMember("error") || (!a.HasMember("error") && embree_out_of_range),
              "one backend answers, the other refuses:\n%s\n%s", native_answer.c_str(), embree_answer.c_str());
-  if (a.HasMember("error")) return 0;
+  // (Embree's refusal of a mesh beyond float range leaves nothing to compare)
+  if (a.HasMember("error") || b.HasMember("error")) return 0;
   for (const char* flag : {"hit", "inside", "intersect"}) {
     const bool in_a = a["result"].HasMember(flag);
     FUZZ_CHECK(in_a == b["result"].HasMember(flag) && (!in_a || a["result"][flag] == b["result"][flag]),
