@@ -26,6 +26,7 @@
 
 #include "hapticd/v1/hapticd.pb.h"
 #include "server/fuzz/fuzz_check.h"
+#include "server/net/test/net_harness.h"
 #include "server/net/control_frame.h"
 #include "server/net/control_service.h"
 #include "server/net/log.h"
@@ -41,22 +42,9 @@ using net::kMaxFrameSize;
 
 constexpr char kToken[] = "0123456789abcdef-token";  // the seeds' Hello carries it
 
-// The scene of the control service tests: a 0.1 m cube at the origin, a floor plane at z = -1.
-scene::SceneBuilder MakeTestScene() {
-  scene::SceneBuilder builder;
-  scene::ObjectSpec box;
-  box.name = "box";
-  box.shape = scene::BoxShape{geometry::Vector3(0.05, 0.05, 0.05)};
-  box.material.stiffness = 1000;
-  builder.Add(box);
-  scene::ObjectSpec floor;
-  floor.name = "floor";
-  floor.shape = scene::PlaneShape{};
-  floor.X_WB.translation = {0, 0, -1};
-  floor.material.stiffness = 500;
-  builder.Add(floor);
-  return builder;
-}
+// The scene of the control service tests (net_harness.h's): a 0.1 m cube at the
+// origin, a floor plane at z = -1.
+using net::testing::MakeTestScene;
 
 // A service without sockets or realtime thread: what control_server.cc holds per server.
 struct Service {
