@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include "server/conformance/query_ops.h"
+#include "server/json/exact_json.h"
 
 namespace hapticd::conformance {
 namespace {
@@ -33,14 +34,13 @@ std::string ErrorLine(const rapidjson::Value* id, const std::string& message) {
 
 std::string AnswerCaseLine(std::string_view line, const QueryBackend& backend) {
   rapidjson::Document doc;
-  // NaN and infinities arrive as bare tokens; full precision keeps every double exact;
-  // the iterative parser bounds stack use whatever the nesting depth.
-  constexpr unsigned kFlags = rapidjson::kParseNanAndInfFlag | rapidjson::kParseFullPrecisionFlag |
-                              rapidjson::kParseIterativeFlag;
-  doc.Parse<kFlags>(line.data(), line.size());
-  if (doc.HasParseError()) {
-    return ErrorLine(nullptr, fmt::format("malformed JSON at offset {}: {}", doc.GetErrorOffset(),
-                                          rapidjson::GetParseError_En(doc.GetParseError())));
+  // NaN and infinities arrive as bare tokens; every number is read exactly
+  // (exact_json.h); the iterative parser bounds stack use whatever the nesting depth.
+  constexpr unsigned kFlags = rapidjson::kParseNanAndInfFlag | rapidjson::kParseIterativeFlag;
+  const rapidjson::ParseResult error = json::ParseDocument<kFlags>(line, doc);
+  if (error.IsError()) {
+    return ErrorLine(nullptr, fmt::format("malformed JSON at offset {}: {}", error.Offset(),
+                                          rapidjson::GetParseError_En(error.Code())));
   }
   if (!doc.IsObject()) return ErrorLine(nullptr, "a case must be a JSON object");
   const auto id_member = doc.FindMember("id");

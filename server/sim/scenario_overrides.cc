@@ -5,6 +5,7 @@
 #include <charconv>
 #include <vector>
 
+#include "server/json/exact_json.h"
 #include "server/sim/json_fields.h"
 #include "server/sim/scenario.h"
 
@@ -34,9 +35,9 @@ int64_t ParseIndex(std::string_view segment) {
 // The value text as JSON when it parses, else as a string, allocated in document.
 rapidjson::Value ParseValue(std::string_view text, rapidjson::Document& document) {
   rapidjson::Document parsed;
-  parsed.Parse<rapidjson::kParseFullPrecisionFlag>(text.data(), text.size());
+  const rapidjson::ParseResult error = json::ParseDocument<rapidjson::kParseDefaultFlags>(text, parsed);
   rapidjson::Value value;
-  if (parsed.HasParseError()) {
+  if (error.IsError()) {
     value.SetString(text.data(), static_cast<rapidjson::SizeType>(text.size()), document.GetAllocator());
   } else {
     value.CopyFrom(parsed, document.GetAllocator());

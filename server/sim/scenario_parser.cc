@@ -2,7 +2,6 @@
 
 #include <fmt/format.h>
 #include <rapidjson/error/en.h>
-#include <rapidjson/memorystream.h>
 #include <rapidjson/reader.h>
 
 #include <algorithm>
@@ -15,6 +14,7 @@
 #include <variant>
 #include <vector>
 
+#include "server/json/exact_json.h"
 #include "server/scene/mesh_file.h"
 #include "server/sim/hand_device.h"
 #include "server/sim/json_fields.h"
@@ -410,12 +410,15 @@ class PathTracker : public rapidjson::BaseReaderHandler<rapidjson::UTF8<>, PathT
   std::vector<Level> levels_;
 };
 
-// The parse error's position, and the field it is in where the tracker knows it.
+// The flags of every parse of a scenario: iterative, so that deep nesting cannot
+// overflow the stack (numbers are exact: server/json/exact_json.h).
+constexpr unsigned kParseFlags = rapidjson::kParseIterativeFlag;
+
+// The parse error's position, and the field it is in where the tracker knows it (the
+// tracker sees the parse that failed, up to where it failed).
 std::string DescribeParseError(std::string_view json, const rapidjson::ParseResult& error) {
   PathTracker tracker;
-  rapidjson::Reader reader;
-  rapidjson::MemoryStream stream(json.data(), json.size());
-  reader.Parse<rapidjson::kParseFullPrecisionFlag | rapidjson::kParseIterativeFlag>(stream, tracker);
+  json::ParseEvents<kParseFlags>(json, tracker);
   std::string where = tracker.Where();
   std::string text = fmt::format("invalid JSON at {}", LineAndColumn(json, error.Offset()));
   if (!where.empty()) text += ", in " + where;
@@ -460,13 +463,8 @@ void RefuseRepeatedKeys(const rapidjson::Value& root) {
 
 rapidjson::Document ParseJson(std::string_view json) {
   rapidjson::Document document;
-  // iterative: deep nesting cannot overflow the stack
-  constexpr unsigned kFlags = rapidjson::kParseFullPrecisionFlag | rapidjson::kParseIterativeFlag;
-  document.Parse<kFlags>(json.data(), json.size());
-  if (document.HasParseError()) {
-    const rapidjson::ParseResult error = document;
-    throw ScenarioError(DescribeParseError(json, error));
-  }
+  const rapidjson::ParseResult error = json::ParseDocument<kParseFlags>(json, document);
+  if (error.IsError()) throw ScenarioError(DescribeParseError(json, error));
   RefuseRepeatedKeys(document);
   return document;
 }

@@ -63,6 +63,29 @@ TEST(QueryRunner, NamesTheNonFiniteValue) {
             "args.a.radius is -Infinity");
 }
 
+// A number is the double it spells: RapidJSON 1.1.0's full-precision parse read the
+// center's 0.0e50 as 4.06e31 (server/json/exact_json.h).
+TEST(QueryRunner, ReadsZerosWithExponentsAsZero) {
+  const std::string b = R"(}, "b": {"center": [0, 0, 3], "radius": 1}}})";
+  const std::string zero = AnswerCaseLine(
+      R"({"id": "z", "op": "sphere_sphere", "args": {"a": {"center": [0.0e50, 0e80, -0e-400], "radius": 1)" + b);
+  const std::string plain =
+      AnswerCaseLine(R"({"id": "z", "op": "sphere_sphere", "args": {"a": {"center": [0, 0, 0], "radius": 1)" + b);
+  EXPECT_EQ(zero, plain);
+  EXPECT_TRUE(Parse(zero).HasMember("result")) << zero;
+}
+
+// Past the largest double is malformed, like 1e400, at the number (RapidJSON 1.1.0 read
+// 9e308 as -2.8e-308); NaN and the infinities stay tokens the runner names.
+TEST(QueryRunner, RefusesNumbersPastTheLargestDouble) {
+  EXPECT_EQ(ErrorOf(R"({"id": "a", "op": "sphere_sphere", "args": {"a": {"center": [0,0,0], "radius": 9e308}}})"),
+            "malformed JSON at offset 79: Number too big to be stored in double.");
+  EXPECT_EQ(ErrorOf(R"({"id": "a", "op": "sphere_sphere", "args": {"a": {"center": [0,0,0], "radius": 1e400}}})"),
+            "malformed JSON at offset 79: Number too big to be stored in double.");
+  EXPECT_EQ(ErrorOf(R"({"id": "a", "op": "sphere_sphere", "args": {"a": {"center": [0,0,0], "radius": NaN.5}}})"),
+            "malformed JSON at offset 79: Invalid value.");
+}
+
 TEST(QueryRunner, NamesEachKindOfInvalidArgument) {
   EXPECT_EQ(ErrorOf(R"({"id": "a", "op": "ray_triangle", "args": {"origin": [0, 0, 1], )"
                     R"("dir": [0, 0, 0], "tri": [[0,0,0],[1,0,0],[0,1,0]]}})"),

@@ -2,8 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -237,10 +239,35 @@ TEST(ParseScenario, SyntaxErrorsNameTheField) {
   EXPECT_EQ(error_of(R"({"scene": {"tolerance": 1e400, "objects": []}})"),
             "invalid JSON at line 1, column 25, in the value of scene.tolerance: Number too big to be stored in "
             "double.");
+  // past the largest double, refused like 1e400 (RapidJSON 1.1.0 read 9e308 as -2.8e-308)
+  EXPECT_EQ(error_of(R"({"scene": {"tolerance": 9e308, "objects": []}})"),
+            "invalid JSON at line 1, column 25, in the value of scene.tolerance: Number too big to be stored in "
+            "double.");
   EXPECT_EQ(error_of(R"({"scene": {"objects": [1, 2,]}})"),
             "invalid JSON at line 1, column 29, in the value of scene.objects[2]: Invalid value.");
   EXPECT_EQ(error_of(R"({"scene": {"objects": [], }})"),
             "invalid JSON at line 1, column 27, in scene: Missing a name for object member.");
+}
+
+// Numbers are the doubles they spell, in the file and in overrides: RapidJSON 1.1.0's
+// full-precision parse read a zero with an exponent as garbage (0.0e50 as -1.9e-267 in
+// a g++ -O2 build, 4.06e31 in hapticd-query; server/json/exact_json.h).
+TEST(ParseScenario, NumbersAreReadExactly) {
+  const SceneFile file = ParseSceneFile(R"({"scene": {"tolerance": 1e-3, "objects": [{"name": "b",
+      "shape": {"type": "box", "half_extents": [0.05, 0.0002e2, 1e-320]}, "position": [0.0e50, -0e-400, 0E+0],
+      "material": {"stiffness": 2000}}]}})", ".");
+  ASSERT_EQ(file.objects.size(), 1u);
+  EXPECT_EQ(file.settings.tolerance, 0.001);
+  const Vector3 p_WB = file.objects[0].X_WB.translation;
+  EXPECT_EQ(p_WB, Vector3(0, 0, 0));
+  EXPECT_TRUE(std::signbit(p_WB.y()));
+  const Vector3 half_extents = std::get<scene::BoxShape>(file.objects[0].shape).half_extents;
+  EXPECT_EQ(half_extents, Vector3(0.05, 0.02, 2024 * std::numeric_limits<double>::denorm_min()));
+  EXPECT_EQ(Parse({"device.start=[0.0e50, 0e80, 0.02]"}).device.start_W, Vector3(0, 0, 0.02));
+  // a zero of 41 digits (more than 22 took the same wrong path)
+  const Scenario long_zero =
+      Parse({"hand.path=[[0.00000000000000000000000000000000000000000, 0, 0, 0.02], [1, 0, 0, 0]]"});
+  EXPECT_EQ(long_zero.hand.path[0].t, 0.0);
 }
 
 // ray_backend, like representation, is for meshes only.
