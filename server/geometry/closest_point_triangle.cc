@@ -50,6 +50,10 @@ ClosestPointOnTriangle Make(const Vector3& p, const Vector3& x, double u, double
 }  // namespace
 
 ClosestPointOnTriangle FindClosestPointOnTriangle(const Vector3& p, const Triangle& tri) {
+  if (!(p.allFinite() && tri.v0.allFinite() && tri.v1.allFinite() && tri.v2.allFinite())) {
+    constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+    return {Vector3::Constant(kNan), kNan, kNan, TriangleFeature::kFace, kNan};
+  }
   // Ericson's Voronoi-region walk: test the vertex regions, then the edge regions;
   // what remains is the face. d1..d6 are the projections of p onto the two edges
   // from each vertex; va, vb, vc are the (scaled) barycentrics.

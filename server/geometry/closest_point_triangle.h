@@ -24,6 +24,7 @@ struct ClosestPointOnTriangle {
   double distance_squared = 0;
 };
 
+// Non-finite input (in p or a corner) gives NaN point, barycentrics and distance.
 ClosestPointOnTriangle FindClosestPointOnTriangle(const Vector3& p, const Triangle& tri);
 
 }  // namespace hapticd::geometry

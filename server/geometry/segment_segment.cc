@@ -1,5 +1,7 @@
 #include "server/geometry/segment_segment.h"
 
+#include <limits>
+
 namespace hapticd::geometry {
 namespace {
 
@@ -7,7 +9,7 @@ namespace {
 // ill-conditioned to trust alone, and the endpoint candidates are compared as well.
 constexpr double kNearlyParallel = 1e-8;
 
-// Clamps to [0, 1]; NaN passes through (so NaN input ends as NaN output).
+// Clamps to [0, 1]; NaN passes through.
 double Clamp01(double x) { return x < 0 ? 0 : (x > 1 ? 1 : x); }
 
 SegmentSegmentClosest MakeResult(const Vector3& p0, const Vector3& d1, const Vector3& q0,
@@ -33,6 +35,10 @@ SegmentSegmentClosest MakeResult(const Vector3& p0, const Vector3& d1, const Vec
 // with one parameter at an end of its range: compare the four endpoint candidates.
 SegmentSegmentClosest FindClosestPointsBetweenSegments(const Vector3& p0, const Vector3& p1,
                                                        const Vector3& q0, const Vector3& q1) {
+  if (!(p0.allFinite() && p1.allFinite() && q0.allFinite() && q1.allFinite())) {
+    constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
+    return {kNan, kNan, Vector3::Constant(kNan), Vector3::Constant(kNan), kNan};
+  }
   const Vector3 d1 = p1 - p0;
   const Vector3 d2 = q1 - q0;
   const Vector3 r = p0 - q0;

@@ -1,6 +1,7 @@
 #include "server/geometry/segment_triangle.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include "server/geometry/exact_predicates.h"
@@ -42,8 +43,34 @@ void SetBarycentrics(const Vector3& o, const Vector3& dir, const Triangle& tri, 
   const double w1 = volume(tri.v2, tri.v0, sign_20);
   const double w2 = volume(tri.v0, tri.v1, sign_01);
   const double sum = w0 + w1 + w2;
+  // the rounded volumes can all vanish (or overflow) where the exact signs do not: then
+  // no corner is known to be nearer, and the centroid stands for the hit
+  if (!(std::abs(sum) > 0) || !std::isfinite(sum)) {
+    hit.u = hit.v = 1.0 / 3;
+    return;
+  }
   hit.u = std::clamp(w1 / sum, 0.0, 1.0);
   hit.v = std::clamp(w2 / sum, 0.0, 1.0 - hit.u);
+}
+
+// The t at which p + t (q - p), taken as lying in the triangle's plane (n its area
+// normal), enters the triangle: the segment clipped by the three edges' inward normals
+// within the plane. Where rounding leaves the clipped interval empty, its middle.
+double EntryWithinPlane(const Vector3& p, const Vector3& q, const Triangle& tri, const Vector3& n) {
+  const Vector3 d = q - p;
+  double lo = 0;
+  double hi = 1;
+  const Vector3* corners[3] = {&tri.v0, &tri.v1, &tri.v2};
+  for (int i = 0; i < 3; ++i) {
+    const Vector3& a = *corners[i];
+    const Vector3 inward = n.cross(*corners[(i + 1) % 3] - a);
+    // inside this edge where inward . (p - a) + t inward . d >= 0
+    const double start = inward.dot(p - a);
+    const double rate = inward.dot(d);
+    if (rate > 0) lo = std::max(lo, -start / rate);
+    if (rate < 0) hi = std::min(hi, -start / rate);
+  }
+  return lo <= hi ? lo : std::clamp(0.5 * (lo + hi), 0.0, 1.0);
 }
 
 // True when the three exact edge signs agree (zeros agree with everything).
@@ -94,7 +121,13 @@ TriangleHit IntersectSegmentTriangleWatertight(const Vector3& p, const Vector3& 
   } else if (side_q == 0) {
     hit.t = 1;
   } else {
-    hit.t = std::clamp(dist_p / (dist_p - dist_q), 0.0, 1.0);
+    // the rounded distances place the crossing only when they differ by more than their
+    // rounding; a segment within rounding of the plane (the exact signs still say it
+    // crosses) is on the plane all along, and it meets the triangle where it enters it
+    const double rounding = 8 * std::numeric_limits<double>::epsilon() * n.norm() *
+                            ((p - tri.v0).norm() + (q - tri.v0).norm());
+    hit.t = std::abs(dist_p - dist_q) > rounding ? std::clamp(dist_p / (dist_p - dist_q), 0.0, 1.0)
+                                                 : EntryWithinPlane(p, q, tri, n);
   }
   SetBarycentrics(p, q - p, tri, sign_01, sign_12, sign_20, hit);
   return hit;
@@ -117,7 +150,11 @@ TriangleHit IntersectRayTriangleWatertight(const Vector3& origin, const Vector3&
   TriangleHit hit{.hit = true};
   if (side != 0) {
     const Vector3 n = (tri.v1 - tri.v0).cross(tri.v2 - tri.v0);
-    hit.t = std::max(0.0, -n.dot(origin - tri.v0) / n.dot(dir));
+    // a ray parallel to the plane to rounding (n . dir rounds to 0 though its exact
+    // sign does not) has no finite crossing to report: a miss, like an exactly parallel one
+    const double t = -n.dot(origin - tri.v0) / n.dot(dir);
+    if (!std::isfinite(t)) return {};
+    hit.t = std::max(0.0, t);
   }
   SetBarycentrics(origin, dir, tri, sign_01, sign_12, sign_20, hit);
   return hit;

@@ -13,7 +13,9 @@
 // segment crosses the plane at several points (it lies in the plane) the result is a
 // miss, by convention. Preconditions: finite input, a non-degenerate triangle
 // (IsDegenerateTriangle() false), p != q, dir != 0. On degenerate input the answer is
-// a miss or a hit with unspecified t, u, v; never a crash.
+// a miss or a hit with unspecified t, u, v; never a crash. The watertight test's t, u
+// and v are always finite and in their ranges, even where rounding cannot resolve them
+// (a segment within rounding of the plane hits where it enters the triangle).
 
 #include "server/geometry/types.h"
 

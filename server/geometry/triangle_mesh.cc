@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -176,8 +177,10 @@ void TriangleMesh::FindDegenerateTriangles() {
   nondegenerate_.reserve(num);
   for (int t = 0; t < num; ++t) {
     const Triangle tri = triangle(t);
-    // zero area, decided exactly: dropped from every query
-    if (IsDegenerateTriangle(tri.v0, tri.v1, tri.v2)) {
+    // zero area, decided exactly, or too small for a normal (the queries divide by its
+    // length): dropped from every query
+    const double normal_squared = (tri.v1 - tri.v0).cross(tri.v2 - tri.v0).squaredNorm();
+    if (IsDegenerateTriangle(tri.v0, tri.v1, tri.v2) || !(normal_squared >= std::numeric_limits<double>::min())) {
       degenerate_[t] = 1;
       continue;
     }

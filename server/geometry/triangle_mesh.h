@@ -7,7 +7,9 @@
 //
 // Creation is the validation boundary: bad input throws std::invalid_argument with a
 // message that names the bad value; nothing after creation throws. Triangles of
-// exactly zero area (IsDegenerateTriangle), and exact repeats of an earlier triangle
+// exactly zero area (IsDegenerateTriangle), triangles too small for their normal to be
+// computed in double precision (the squared length of the edges' cross product below
+// the smallest normal double: edges shorter than about 1e-77 m), and exact repeats of an earlier triangle
 // (the same three corner positions in any order or winding: a coincident copy adds
 // nothing to hit but work), are kept in triangles() so indices stay the caller's, but
 // they are marked degenerate and no query ever reports them.

@@ -7,8 +7,10 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <string>
 
 #include "server/geometry/exact_predicates.h"
+#include "server/geometry/test/non_finite.h"
 
 namespace hapticd::geometry {
 namespace {
@@ -254,15 +256,19 @@ TEST(ClosestPointOnTriangle, NearlyCollinearSliversGiveTheSpannedSegment) {
   RecordProperty("sliver_failures", failures);
 }
 
-TEST(ClosestPointOnTriangle, NonFiniteInputDoesNotCrash) {
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const double inf = std::numeric_limits<double>::infinity();
-  for (double bad : {nan, inf, -inf}) {
-    const ClosestPointOnTriangle a = FindClosestPointOnTriangle({bad, 0, 0}, kTri);
-    const Triangle bad_tri{{0, 0, 0}, {bad, 0, 0}, {0, 2, 0}};
-    const ClosestPointOnTriangle b = FindClosestPointOnTriangle({1, 1, 1}, bad_tri);
-    EXPECT_FALSE(a.distance_squared < 0);
-    EXPECT_FALSE(b.distance_squared < 0);
+// The header's promise: a non-finite coordinate in the point or the triangle gives NaN
+// in the point, the barycentrics and the distance (never a contact).
+TEST(ClosestPointOnTriangle, NonFiniteInputGivesNaNFields) {
+  for (const Vector3& p : {Vector3(0.5, 0.5, 1), Vector3(-1, -1, 0), Vector3(3, 0, 0)}) {
+    const auto check = [](const ClosestPointOnTriangle& c, const std::string& what) {
+      EXPECT_TRUE(c.point.array().isNaN().all() && std::isnan(c.u) && std::isnan(c.v) &&
+                  std::isnan(c.distance_squared))
+          << what << ": point " << c.point.transpose() << " d2 " << c.distance_squared;
+    };
+    for (const Triangle& tri : WithOneNonFiniteField(kTri)) {
+      check(FindClosestPointOnTriangle(p, tri), "a bad triangle");
+    }
+    for (const Vector3& bad : WithOneNonFiniteField(p)) check(FindClosestPointOnTriangle(bad, kTri), "a bad point");
   }
 }
 

@@ -3,6 +3,7 @@
 // Non-finite inputs shared by the geometry tests: every copy of a value that has one
 // scalar field (a coordinate, a rotation entry, a radius) replaced by NaN, +inf or -inf.
 
+#include <array>
 #include <limits>
 #include <vector>
 
@@ -30,6 +31,24 @@ inline std::vector<double*> ScalarFields(Capsule& c) {
   std::vector<double*> fields = ScalarFields(c.p0);
   for (double* f : ScalarFields(c.p1)) fields.push_back(f);
   fields.push_back(&c.radius);
+  return fields;
+}
+
+inline std::vector<double*> ScalarFields(Triangle& t) {
+  std::vector<double*> fields = ScalarFields(t.v0);
+  for (Vector3* v : {&t.v1, &t.v2}) {
+    for (double* f : ScalarFields(*v)) fields.push_back(f);
+  }
+  return fields;
+}
+
+// Several points (a segment pair's four ends, a query point beside a triangle).
+template <std::size_t N>
+std::vector<double*> ScalarFields(std::array<Vector3, N>& points) {
+  std::vector<double*> fields;
+  for (Vector3& v : points) {
+    for (double* f : ScalarFields(v)) fields.push_back(f);
+  }
   return fields;
 }
 

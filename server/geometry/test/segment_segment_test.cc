@@ -2,9 +2,12 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <random>
+
+#include "server/geometry/test/non_finite.h"
 
 namespace hapticd::geometry {
 namespace {
@@ -184,16 +187,19 @@ TEST(SegmentSegment, MatchesOracleOnNearlyParallelAndShortSegments) {
   }
 }
 
-TEST(SegmentSegment, NonFiniteInputDoesNotCrash) {
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const double inf = std::numeric_limits<double>::infinity();
-  for (double bad : {nan, inf, -inf}) {
-    const SegmentSegmentClosest r =
-        FindClosestPointsBetweenSegments({bad, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 2, bad});
-    EXPECT_FALSE(r.distance_squared < 0);
-    const SegmentSegmentClosest z =
-        FindClosestPointsBetweenSegments({bad, bad, bad}, {bad, bad, bad}, {0, 1, 0}, {0, 2, 0});
-    EXPECT_FALSE(z.distance_squared < 0);
+// The header's promise: a non-finite coordinate anywhere gives NaN in every field
+// (never a distance, so no caller mistakes it for a contact).
+TEST(SegmentSegment, NonFiniteInputGivesNaNFields) {
+  const std::array<Vector3, 4> crossing{Vector3(-1, 0, 0), Vector3(1, 0, 0), Vector3(0, -1, 1), Vector3(0, 1, 1)};
+  const std::array<Vector3, 4> zero_length{Vector3(0, 0, 0), Vector3(0, 0, 0), Vector3(0, 1, 0), Vector3(0, 2, 0)};
+  for (const auto& clean : {crossing, zero_length}) {
+    for (const auto& e : WithOneNonFiniteField(clean)) {
+      const SegmentSegmentClosest r = FindClosestPointsBetweenSegments(e[0], e[1], e[2], e[3]);
+      EXPECT_TRUE(std::isnan(r.s) && std::isnan(r.t) && r.point_a.array().isNaN().all() &&
+                  r.point_b.array().isNaN().all() && std::isnan(r.distance_squared))
+          << "s " << r.s << " t " << r.t << " d2 " << r.distance_squared << " for " << e[0].transpose() << " | "
+          << e[1].transpose() << " | " << e[2].transpose() << " | " << e[3].transpose();
+    }
   }
 }
 

@@ -124,28 +124,88 @@ TEST(RayTriangle, HitsOriginOnFaceAndScalesWithDirection) {
   }
 }
 
-TEST(SegmentTriangle, NonFiniteInputDoesNotCrash) {
+// Non-finite input is a miss in both flavours (Möller-Trumbore's comparisons reject NaN;
+// the watertight test checks first, since its exact signs would be meaningless).
+TEST(SegmentTriangle, NonFiniteInputIsAMiss) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
-  int watertight_hits = 0;
   for (double bad : {nan, inf, -inf}) {
     const Vector3 bad_point(1, bad, 1);
     const Triangle bad_tri{{0, 0, 0}, {4, 0, bad}, {0, 4, 0}};
-    // Möller-Trumbore's comparisons reject NaN
-    EXPECT_FALSE(IntersectSegmentTriangle(bad_point, {1, 1, -1}, kTri).hit);
-    EXPECT_FALSE(IntersectSegmentTriangle({1, 1, 1}, {1, 1, -1}, bad_tri).hit);
-    EXPECT_FALSE(IntersectRayTriangle({1, 1, 1}, {0, bad, -1}, kTri).hit);
-    // the watertight test only promises not to crash; count what it says
-    for (const TriangleHit& h :
-         {IntersectSegmentTriangleWatertight(bad_point, {1, 1, -1}, kTri),
-          IntersectSegmentTriangleWatertight({1, 1, 1}, {1, 1, -1}, bad_tri),
-          IntersectRayTriangleWatertight({1, 1, 1}, {0, bad, -1}, kTri),
-          IntersectRayTriangleWatertight({1, 1, 1}, {0, 0, -1}, bad_tri)}) {
-      watertight_hits += h.hit;
+    for (const Flavour& f : kFlavours) {
+      EXPECT_FALSE(f.segment(bad_point, {1, 1, -1}, kTri).hit) << f.name << " " << bad;
+      EXPECT_FALSE(f.segment({1, 1, 1}, {1, 1, -1}, bad_tri).hit) << f.name << " " << bad;
+      EXPECT_FALSE(f.ray({1, 1, 1}, {0, bad, -1}, kTri).hit) << f.name << " " << bad;
+      EXPECT_FALSE(f.ray({1, 1, 1}, {0, 0, -1}, bad_tri).hit) << f.name << " " << bad;
     }
   }
-  RecordProperty("watertight_hits_on_non_finite_input", watertight_hits);
-  std::printf("watertight hits on 12 non-finite inputs: %d\n", watertight_hits);
+}
+
+// A fuzz find (regressions/fuzz_mesh_validation/nan-sweep-on-tiny-coordinates): the
+// segment crosses the plane by the exact signs, but its rounded distances to the plane
+// both cancel to 0 (the normal's x, 1.4e-308, is lost beside 0.675), so t was 0 / 0.
+// Within rounding of the plane, the hit is where the segment enters the triangle.
+TEST(SegmentTriangleWatertight, SegmentWithinRoundingOfThePlaneHitsAtAFiniteT) {
+  const Triangle tri{{5.0804629551391581e-299, 5.0804629551391581e-299, 5.0804629551391581e-299},
+                     {-0.75, 0, 1.390679649680187e-308},
+                     {0, -1, -1}};
+  const Vector3 p(0.90039052967910604, 0.90039052967910604, 0.90039052967910604);
+  const Vector3 q(-0.375, -0.5, -0.5);
+  const TriangleHit h = IntersectSegmentTriangleWatertight(p, q, tri);
+  ASSERT_TRUE(h.hit);
+  EXPECT_TRUE(h.t >= 0 && h.t <= 1 && h.u >= 0 && h.v >= 0 && h.u + h.v <= 1) << h.t << " " << h.u << " " << h.v;
+  EXPECT_LE(FindClosestPointOnTriangle(p + h.t * (q - p), tri).distance_squared, 1e-28);
+}
+
+// The same on random triangles: segments drawn in the plane (to rounding), so that the
+// exact test sees a crossing (or not) that the rounded distances cannot place. Every
+// hit's t, u, v are finite and in range, and the hit point is on the triangle to
+// rounding, at its first point there (a little before t is off it).
+TEST(SegmentTriangleWatertight, HitsWithinRoundingOfThePlaneStayInRange) {
+  std::mt19937_64 rng(77);
+  std::uniform_real_distribution<double> coordinate(-1, 1);
+  const auto random_point = [&] { return Vector3(coordinate(rng), coordinate(rng), coordinate(rng)); };
+  int hits = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Triangle tri{random_point(), random_point(), random_point()};
+    const auto in_plane = [&] {
+      const double a = 1.5 * coordinate(rng), b = 1.5 * coordinate(rng);
+      return Vector3(tri.v0 + a * (tri.v1 - tri.v0) + b * (tri.v2 - tri.v0));
+    };
+    const Vector3 p = in_plane();
+    const Vector3 q = in_plane();
+    const TriangleHit h = IntersectSegmentTriangleWatertight(p, q, tri);
+    if (!h.hit) continue;
+    ++hits;
+    ASSERT_TRUE(h.t >= 0 && h.t <= 1 && h.u >= 0 && h.v >= 0 && h.u + h.v <= 1)
+        << "case " << i << ": t " << h.t << " u " << h.u << " v " << h.v;
+    EXPECT_LE(FindClosestPointOnTriangle(p + h.t * (q - p), tri).distance_squared, 1e-26) << "case " << i;
+    if (h.t > 1e-6) {
+      const Vector3 before = p + (h.t - 1e-6) * (q - p);
+      EXPECT_GT(FindClosestPointOnTriangle(before, tri).distance_squared, 1e-26) << "case " << i;
+    }
+  }
+  std::printf("hits within rounding of the plane: %d of 20000\n", hits);
+  EXPECT_GT(hits, 1000);
+}
+
+// A ray from the plane and along it, both to rounding: the exact signs may still see a
+// crossing, but never at an infinite or negative t.
+TEST(RayTriangleWatertight, RaysParallelToRoundingHaveFiniteT) {
+  std::mt19937_64 rng(78);
+  std::uniform_real_distribution<double> coordinate(-1, 1);
+  const auto random_point = [&] { return Vector3(coordinate(rng), coordinate(rng), coordinate(rng)); };
+  int hits = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Triangle tri{random_point(), random_point(), random_point()};
+    const Vector3 origin = tri.v0 + 0.3 * (tri.v1 - tri.v0) + 0.3 * (tri.v2 - tri.v0);
+    const Vector3 dir = 0.7 * (tri.v1 - tri.v0) - 0.2 * (tri.v2 - tri.v0);
+    const TriangleHit h = IntersectRayTriangleWatertight(origin, dir, tri);
+    hits += h.hit;
+    if (h.hit) ASSERT_TRUE(std::isfinite(h.t) && h.t >= 0) << "case " << i << ": t " << h.t;
+  }
+  std::printf("rays along the plane to rounding that hit: %d of 20000\n", hits);
+  EXPECT_GT(hits, 1000);
 }
 
 // ---------------------------------------------------------------------------------

@@ -120,6 +120,27 @@ TEST(TriangleMesh, DropsDegenerateTrianglesAndKeepsOriginalIndices) {
   EXPECT_EQ(mesh.face_normal(1), Vector3(0, 0, -1));
 }
 
+// A triangle of non-zero area whose normal underflows (edges of 1e-80 m: the cross
+// product's squared length is subnormal) counts as zero-area: every query divides by
+// that length. One of 1e-70 m still has a normal, and stays. (A fuzz find: a sweep
+// onto such a triangle reported a zero normal.)
+TEST(TriangleMesh, DropsTrianglesTooSmallForANormal) {
+  for (const double edge : {1e-80, 1e-70}) {
+    std::vector<Vector3> vertices = kTetraVertices;
+    // near the origin, where edges this short are representable
+    vertices.push_back({-edge, -edge, -edge});
+    vertices.push_back({0, -edge, -edge});
+    vertices.push_back({-edge, 0, -edge});
+    std::vector<Indices> triangles = kTetraTriangles;
+    triangles.push_back({4, 5, 6});
+    const TriangleMesh mesh(vertices, triangles);
+    const bool dropped = edge < 1e-77;
+    EXPECT_EQ(mesh.is_degenerate(4), dropped) << edge;
+    EXPECT_EQ(mesh.num_degenerate_triangles(), dropped ? 1 : 0) << edge;
+    if (!dropped) EXPECT_EQ(mesh.face_normal(4), Vector3(0, 0, 1)) << edge;
+  }
+}
+
 // ---------------------------------------------------------------------------------
 // Open and closed.
 
