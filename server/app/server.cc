@@ -58,6 +58,7 @@ struct Server::Impl {
 
   net::ServiceOptions MakeServiceOptions(const ServerOptions& options) {
     net::ServiceOptions service_options;
+    service_options.tick_work_budget = options.tick_work_budget;
     service_options.udp_endpoint =
         FormatEndpoint(realtime.local_endpoint().address(), realtime.local_endpoint().port());
     if (!options.access_token_file.empty()) service_options.access_token = ReadToken(options.access_token_file);

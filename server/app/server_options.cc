@@ -30,7 +30,7 @@ constexpr std::string_view kValueOptions[] = {
     "--host", "--tcp-port", "--udp-port", "--scene", "--ray-backend", "--max-sessions",
     "--realtime-priority", "--tls-cert", "--tls-key", "--access-token-file", "--observer-token-file", "--log-level",
     "--max-objects", "--max-mesh-triangles", "--max-scene-triangles", "--max-connections",
-    "--max-request-bytes", "--idle-timeout"};
+    "--max-request-bytes", "--idle-timeout", "--tick-work-budget"};
 
 }  // namespace
 
@@ -77,6 +77,11 @@ budgets (what one client can make the server hold or do; over one, a clear error
                             67108864; before a successful Hello 4096)
   --idle-timeout S          seconds a control connection without subscriptions may
                             send nothing before it is closed (default 600)
+  --tick-work-budget N      work units (BVH nodes, primitives, objects) one session's
+                            render tick may spend, from 100 to 10000000 (default
+                            10000), refilled by a quarter a tick; a tick over it
+                            sends the last safe force, flagged OVERRUN, so no spot
+                            of the scene delays other sessions
 )";
 }
 
@@ -138,6 +143,8 @@ ServerOptions ParseServerOptions(std::span<const std::string_view> args) {
       options.max_connections = ReadCount(option, value, 1 << 14);
     } else if (option == "--max-request-bytes") {
       options.max_request_bytes = ReadInt<uint32_t>(option, value, 4096, net::kMaxFrameSize);
+    } else if (option == "--tick-work-budget") {
+      options.tick_work_budget = ReadInt<int64_t>(option, value, int64_t{100}, int64_t{10'000'000});
     } else {
       options.idle_timeout_s = ReadInt(option, value, 1, 24 * 3600);
     }

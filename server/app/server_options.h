@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include "server/force/render_session.h"
 #include "server/net/control_server.h"
 #include "server/net/log.h"
 #include "server/scene/scene_limits.h"
@@ -34,6 +35,7 @@ struct ServerOptions {
   net::LogLevel log_level = net::LogLevel::kInfo;
   // What one scene and one connection may take (--max-objects, --max-connections, ...).
   scene::SceneBudgets scene_budgets;
+  int64_t tick_work_budget = force::kDefaultTickWorkBudget;
   std::size_t max_connections = 64;
   uint32_t max_request_bytes = net::kMaxFrameSize;
   int idle_timeout_s = 600;

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "server/geometry/closest_point_triangle.h"
+#include "server/geometry/work_meter.h"
 
 namespace hapticd::embree {
 namespace {
@@ -40,6 +41,12 @@ float EmbreeRadius(const EmbreeMesh& mesh, double distance) {
 
 // The exact closest point on one candidate; a better one shrinks Embree's radius.
 bool VisitCandidate(RTCPointQueryFunctionArguments* args) {
+  // past the tick's work budget (geometry::WorkMeter): shrink the query to its point
+  // (the answer is incomplete; the metered caller throws it away)
+  if (!geometry::WorkMeter::Charge(1)) {
+    args->query->radius = 0;
+    return true;
+  }
   auto& search = *static_cast<ClosestPointSearch*>(args->userPtr);
   const Triangle& triangle = search.mesh->primitive(args->primID);
   if (BoxDistanceSquared(search.p, triangle) > search.best_d2) return false;

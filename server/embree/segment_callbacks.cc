@@ -5,6 +5,7 @@
 #include "server/embree/embree_mesh.h"
 #include "server/geometry/aabb.h"
 #include "server/geometry/segment_triangle.h"
+#include "server/geometry/work_meter.h"
 
 namespace hapticd::embree::internal {
 namespace {
@@ -18,6 +19,17 @@ TriangleHit TestCandidate(const SegmentQuery& query, const geometry::Triangle& t
   const Aabb segment_box{query.p.cwiseMin(query.q), query.p.cwiseMax(query.q)};
   if (!geometry::AabbsOverlap(segment_box, Aabb::OfTriangle(triangle))) return {};
   return geometry::IntersectSegmentTriangleWatertight(query.p, query.q, triangle);
+}
+
+// Past the tick's work budget (geometry::WorkMeter): every lane's traversal ends here,
+// its answer incomplete (the metered caller throws it away).
+template <typename Ray>
+bool EndWhenOverBudget(Ray* rays, unsigned n, const int* valid) {
+  if (geometry::WorkMeter::Charge(1)) return false;
+  for (unsigned i = 0; i < n; ++i) {
+    if (valid[i] != 0) RTCRayN_tfar(rays, n, i) = -std::numeric_limits<float>::infinity();
+  }
+  return true;
 }
 
 SegmentQueryContext& ContextOf(RTCIntersectContext* context) {
@@ -65,6 +77,7 @@ void SweepCandidate(const RTCIntersectFunctionNArguments* args, const EmbreeMesh
 void IntersectCandidate(const RTCIntersectFunctionNArguments* args) {
   const auto& mesh = *static_cast<const EmbreeMesh*>(args->geometryUserPtr);
   SegmentQueryContext& context = ContextOf(args->context);
+  if (EndWhenOverBudget(RTCRayHitN_RayN(args->rayhit, args->N), args->N, args->valid)) return;
   // point sweeps decide by the god-object's rules
   if (context.sweeps != nullptr) {
     SweepCandidate(args, mesh, context.sweeps);
@@ -86,6 +99,7 @@ void IntersectCandidate(const RTCIntersectFunctionNArguments* args) {
 void OccludeCandidate(const RTCOccludedFunctionNArguments* args) {
   const auto& mesh = *static_cast<const EmbreeMesh*>(args->geometryUserPtr);
   SegmentQueryContext& context = ContextOf(args->context);
+  if (EndWhenOverBudget(args->ray, args->N, args->valid)) return;
   const geometry::Triangle& triangle = mesh.primitive(args->primID);
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] == 0) continue;

@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 
 #include "server/force/scene_queries.h"
+#include "server/geometry/work_meter.h"
 
 namespace hapticd::force {
 namespace {
@@ -104,6 +105,7 @@ Vector3 CarryProxy(const scene::SceneSnapshot& scene, const Vector3& x, double r
   // a proxy resting on (within a micrometre of) a kinematic object moves with it
   bool any_kinematic = false;
   for (const scene::SceneObject& object : scene.objects()) {
+    if (!geometry::WorkMeter::Charge(1)) break;
     if (object.motion != scene::Motion::kKinematic) continue;
     any_kinematic = true;
     const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(x), r + kRestingGap);

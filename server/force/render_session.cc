@@ -1,12 +1,15 @@
 #include "server/force/render_session.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include "server/force/admittance_avatar.h"
 #include "server/force/control.h"
 #include "server/force/penalty_avatar.h"
 #include "server/force/proxy_avatar.h"
+#include "server/geometry/work_meter.h"
 
 namespace hapticd::force {
 namespace {
@@ -50,10 +53,21 @@ struct RenderSession::State {
   Watchdog watchdog;
   DeviceInput last_good;
   bool has_good = false;
+  // this tick's watchdog scale and force before it (what Render leaves), the last
+  // force that did not overrun (the safe one an overrun repeats), whether the last
+  // tick overran
+  double scale = 1;
+  Vector3 f_unscaled_W = Vector3::Zero();
+  Vector3 safe_f_W = Vector3::Zero();
+  bool overran = false;
 };
 
-RenderSession::RenderSession(const SessionSettings& settings) : settings_(settings) {
+RenderSession::RenderSession(const SessionSettings& settings, int64_t work_budget)
+    : settings_(settings), work_budget_(work_budget), work_credit_(work_budget) {
   if (const auto error = ValidateSessionSettings(settings)) throw std::invalid_argument(*error);
+  if (work_budget <= 0) {
+    throw std::invalid_argument("the tick work budget is " + std::to_string(work_budget) + "; it must be positive");
+  }
   state_ = std::make_unique<State>(settings);
 }
 
@@ -71,12 +85,49 @@ void RenderSession::Reset(const Vector3& p_W) {
   s.last_good = DeviceInput{};
   s.last_good.p_WD = p_W;
   s.has_good = true;
+  s.scale = 1;
+  s.f_unscaled_W = s.safe_f_W = Vector3::Zero();
+  s.overran = false;
+  work_credit_ = work_budget_;
 }
 
 double RenderSession::observed_energy() const { return state_->passivity.observed_energy(); }
 
 TickOutput RenderSession::Tick(const scene::SceneSnapshot& scene, const DeviceInput& input,
                                double dt) {
+  State& s = *state_;
+  // what an overrun restores: what this tick's (incomplete) answers would change
+  const ProxyAvatar proxy_before = s.proxy;
+  const AdmittanceAvatar admittance_before = s.admittance;
+  const ForceLimiter limiter_before = s.limiter;
+  const SessionCounters counters_before = counters_;
+  work_credit_ = std::min(work_budget_, work_credit_ + std::max<int64_t>(1, work_budget_ / 4));
+  const geometry::WorkMeter meter(work_credit_);
+  TickOutput out = Render(scene, input, dt);
+  last_tick_work_ = meter.used();
+  work_credit_ -= last_tick_work_;
+  s.overran = meter.exhausted();
+  if (!s.overran) {
+    s.safe_f_W = s.f_unscaled_W;
+    return out;
+  }
+  s.proxy = proxy_before;
+  s.admittance = admittance_before;
+  s.limiter = limiter_before;
+  counters_.force_saturations = counters_before.force_saturations;
+  counters_.passivity_activations = counters_before.passivity_activations;
+  counters_.constraint_overflows = counters_before.constraint_overflows;
+  ++counters_.tick_overruns;
+  const bool admittance = settings_.device.mode == DeviceMode::kAdmittance;
+  TickOutput safe;
+  safe.overrun = true;
+  safe.f_W = s.scale * s.safe_f_W;
+  safe.avatar_W = admittance ? admittance_before.position() : proxy_before.proxy();
+  safe.p_command_W = admittance ? admittance_before.position() : out.p_command_W;
+  return safe;
+}
+
+TickOutput RenderSession::Render(const scene::SceneSnapshot& scene, const DeviceInput& input, double dt) {
   State& s = *state_;
   ++counters_.ticks;
   if (!(dt > 0) || !std::isfinite(dt)) dt = 1 / settings_.device.rate_hz;
@@ -96,8 +147,10 @@ TickOutput RenderSession::Tick(const scene::SceneSnapshot& scene, const DeviceIn
     s.passivity.Observe(input.p_WD, input.f_held_W);
   }
   const unsigned long long trips_before = s.watchdog.trips();
-  const double scale = s.watchdog.Step(fresh, dt);
+  // a tick after an overrun counts as silence: a stream of overruns ramps down like one
+  const double scale = s.watchdog.Step(fresh && !s.overran, dt);
   counters_.watchdog_trips += s.watchdog.trips() - trips_before;
+  s.scale = scale;
 
   TickOutput out;
   if (!s.has_good) return out;
@@ -107,6 +160,7 @@ TickOutput RenderSession::Tick(const scene::SceneSnapshot& scene, const DeviceIn
   if (settings_.device.mode == DeviceMode::kAdmittance) {
     const AvatarForce avatar = s.admittance.Step(scene, scale * in.f_sensed_W, dt);
     counters_.constraint_overflows += avatar.overflow;
+    s.f_unscaled_W = in.f_sensed_W;
     out.f_W = avatar.f_W;
     out.p_command_W = avatar.avatar_W;
     out.avatar_W = avatar.avatar_W;
@@ -128,6 +182,7 @@ TickOutput RenderSession::Tick(const scene::SceneSnapshot& scene, const DeviceIn
   counters_.passivity_activations += s.passivity.active();
   f = s.limiter.Apply(f, dt);
   counters_.force_saturations += s.limiter.saturated();
+  s.f_unscaled_W = f;
   out.f_W = scale * f;
   out.p_command_W = in.p_WD;
   out.avatar_W = avatar.avatar_W;

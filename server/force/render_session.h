@@ -7,6 +7,16 @@
 // The session is built off the real-time thread (it preallocates everything); Tick runs
 // on it and allocates nothing, takes no lock, throws nothing and logs nothing. Bad input
 // yields a safe command and a counted event.
+//
+// Each tick's queries run under a work budget (geometry::WorkMeter), so that no spot of
+// a scene can make one session's tick delay the others' on the real-time thread. The
+// budget is a bucket: a tick may spend all of it, but it refills by a quarter per tick,
+// so a session that overruns tick after tick costs the thread a quarter of a budget per
+// tick, not a whole one (at 1 kHz a whole one would take most of the thread's time). A
+// tick that spends what the bucket holds (an overrun) is thrown away: the avatar stays where it was, the command
+// is the last force of a tick that did not overrun (the last safe one) with this tick's
+// watchdog scale, and the overrun is counted. Overruns also count as silence for the watchdog, so a device stuck
+// where every tick overruns has its held force ramped down like a silent one's.
 
 #include <cstdint>
 #include <memory>
@@ -41,7 +51,15 @@ struct TickOutput {
   Vector3 avatar_W = Vector3::Zero();
   bool contact = false;
   int touched_object = -1;  // index in the snapshot of the object touched, or -1
+  // The tick spent its work budget: the command is the last safe one (see above).
+  bool overrun = false;
 };
+
+// Work units (geometry::WorkMeter) one tick may spend by default, a few hundred
+// microseconds here. Its refill, a quarter per tick, is 1.7 times what the heaviest
+// benchmark tick spends, tick after tick (at most 1,451: a 5 mm finger proxy sliding on
+// a sphere of 1M triangles; bench/results/render_tick.md).
+inline constexpr int64_t kDefaultTickWorkBudget = 10000;
 
 // Events counted on the real-time path, read by a non-real-time thread.
 struct SessionCounters {
@@ -52,12 +70,14 @@ struct SessionCounters {
   uint64_t passivity_activations = 0;
   uint64_t watchdog_trips = 0;
   uint64_t constraint_overflows = 0;  // a proxy met more than three planes in a tick
+  uint64_t tick_overruns = 0;         // ticks that spent their work budget
 };
 
 class RenderSession {
  public:
-  // Throws std::invalid_argument with ValidateSessionSettings' message on bad settings.
-  explicit RenderSession(const SessionSettings& settings);
+  // Throws std::invalid_argument with ValidateSessionSettings' message on bad settings,
+  // or when work_budget (units per tick, the deployment's) is not positive.
+  explicit RenderSession(const SessionSettings& settings, int64_t work_budget = kDefaultTickWorkBudget);
   ~RenderSession();
   RenderSession(RenderSession&&) noexcept;
   RenderSession& operator=(RenderSession&&) noexcept;
@@ -71,12 +91,21 @@ class RenderSession {
 
   const SessionSettings& settings() const { return settings_; }
   const SessionCounters& counters() const { return counters_; }
+  // Work units the last tick spent (geometry::WorkMeter; past the budget if it overran).
+  int64_t last_tick_work() const { return last_tick_work_; }
+  int64_t work_budget() const { return work_budget_; }
   // Net energy (J) the passivity observer has seen the rendered force put into the
   // device (positive: generated).
   double observed_energy() const;
 
  private:
+  // The tick itself, under the meter that Tick starts.
+  TickOutput Render(const scene::SceneSnapshot& scene, const DeviceInput& input, double dt);
+
   SessionSettings settings_;
+  int64_t work_budget_;
+  int64_t last_tick_work_ = 0;
+  int64_t work_credit_;  // what the bucket holds, at most work_budget_
   SessionCounters counters_;
   // Method and control state, allocated once by the constructor.
   struct State;

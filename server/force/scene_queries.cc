@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "server/geometry/work_meter.h"
+
 namespace hapticd::force {
 namespace {
 
@@ -19,6 +21,7 @@ SceneContact FindDeepestContact(const scene::SceneSnapshot& scene, const Vector3
   if (!c_W.allFinite() || !(r >= 0) || !(max_gap >= 0)) return deepest;
   const double reach = r + max_gap;
   for (int i = 0; i < scene.num_objects(); ++i) {
+    if (!geometry::WorkMeter::Charge(1)) break;
     const scene::SceneObject& object = scene.object(i);
     // skip objects whose box is out of reach
     if (DistanceSquaredToBox(object.bounds_W, c_W) > reach * reach) continue;
@@ -43,6 +46,7 @@ SceneSweep SweepSphereScene(const scene::SceneSnapshot& scene, const Vector3& a_
   // the box swept by the sphere, to skip objects it cannot reach
   geometry::Aabb swept{a_W.cwiseMin(b_W) - Vector3::Constant(r), a_W.cwiseMax(b_W) + Vector3::Constant(r)};
   for (int i = 0; i < scene.num_objects(); ++i) {
+    if (!geometry::WorkMeter::Charge(1)) break;
     const scene::SceneObject& object = scene.object(i);
     if (!geometry::AabbsOverlap(swept, object.bounds_W)) continue;
     const ShapeSweep sweep =

@@ -8,6 +8,7 @@
 #include "server/geometry/bvh_simd.h"
 #include "server/geometry/exact_predicates.h"
 #include "server/geometry/segment_triangle.h"
+#include "server/geometry/work_meter.h"
 
 namespace hapticd::geometry {
 namespace {
@@ -149,11 +150,13 @@ void TraverseSegment(const MeshBvh& bvh, const Vector3& p, const Vector3& q, Lea
   double t_max = 1;
   auto within = [&](double t) { return t <= t_max * kSlabSlack; };
   auto visit_leaf = [&](int first, int count) {
+    if (!WorkMeter::Charge(count)) return false;
     t_max = visit(first, count);
     return t_max >= 0;
   };
   int current = 0;
   while (true) {
+    if (!WorkMeter::Charge(1)) return;
     const BvhNode& node = nodes[current];
     double t_entry[kBvhWidth];
     const int mask = IntersectChildren(node, slabs, t_max, t_entry);
@@ -180,16 +183,19 @@ void TraverseNearest(const MeshBvh& bvh, const Vector3& p, const double* bound_d
   int top = 0;
   auto within = [&](double d2) { return d2 <= *bound_d2; };
   auto visit_leaf = [&](int first, int count) {
+    if (!WorkMeter::Charge(count)) return false;
     visit(first, count);
     return true;
   };
   int current = 0;
   while (true) {
+    if (!WorkMeter::Charge(1)) return;
     const BvhNode& node = nodes[current];
     double d2[kBvhWidth];
     ChildDistancesSquared(node, p2, d2);
     const int all = (1 << kBvhWidth) - 1;
     current = VisitChildren(nodes, node, d2, all, stack, top, within, visit_leaf);
+    if (current == kStop) return;
     if (current != kPop) continue;
     do {
       if (top == 0) return;

@@ -10,6 +10,7 @@
 #include "server/geometry/bvh_simd.h"
 #include "server/geometry/exact_predicates.h"
 #include "server/geometry/segment_triangle.h"
+#include "server/geometry/work_meter.h"
 
 namespace hapticd::geometry {
 namespace {
@@ -369,6 +370,7 @@ void TraverseGrownSegment(const MeshBvh& bvh, const Vector3& a, const Vector3& b
   const auto within = [&](double t) { return t <= t_max * kSlabSlack; };
   int current = 0;
   while (true) {
+    if (!WorkMeter::Charge(1)) return;
     const BvhNode& node = nodes[current];
     double t_entry[kBvhWidth];
     const int mask = IntersectChildren(node, slabs, t_max, t_entry);
@@ -392,6 +394,7 @@ void TraverseGrownSegment(const MeshBvh& bvh, const Vector3& a, const Vector3& b
         Prefetch(nodes[node.child[c]]);
         internal[num_internal++] = c;
       } else if (node.count[c] > 0) {
+        if (!WorkMeter::Charge(node.count[c])) return;
         t_max = visit(node.first_primitive(c), node.count[c]);
         if (t_max < 0) return;
       }

@@ -288,7 +288,7 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const Connect
   slot.owner_connection = connection.id;
   slot.period_ns = static_cast<int64_t>(std::llround(1e9 / settings.device.rate_hz));
   slot.timeout_ns = static_cast<int64_t>(std::llround(timeout_s * 1e9));
-  slot.render.emplace(settings);
+  slot.render.emplace(settings, options_.tick_work_budget);
   slot.render->Reset(start_W);
   slot.replay.Reset();
   slot.peer_size = 0;
@@ -513,6 +513,7 @@ void ControlService::WriteSession(uint32_t id, const SessionTelemetrySample& sam
   out->set_force_saturations(sample.render.force_saturations);
   out->set_watchdog_trips(sample.render.watchdog_trips);
   out->set_passivity_activations(sample.render.passivity_activations);
+  out->set_tick_overruns(sample.render.tick_overruns);
   out->set_tick_us_max(sample.tick_us_max);
 }
 

@@ -55,6 +55,8 @@ struct ServiceOptions {
   std::string access_token;  // the operator's; required in Hello when a connection is not authenticated
   std::string observer_token;  // optional, with access_token: a Hello with it makes an observer
   int max_subscriptions_per_connection = 16;
+  // Work units one render tick may spend (geometry::WorkMeter; --tick-work-budget).
+  int64_t tick_work_budget = force::kDefaultTickWorkBudget;
 };
 
 class ControlService {

@@ -240,7 +240,7 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
   ++telemetry.states_received;
   telemetry.tick_us_max = std::max(telemetry.tick_us_max, tick_us);
   const bool queued = QueueCommand(slot, output, state.sequence, state.send_time_ns, scene.version(),
-                                   v1::COMMAND_FLAGS_NONE, reply);
+                                   output.overrun ? v1::COMMAND_FLAGS_OVERRUN : v1::COMMAND_FLAGS_NONE, reply);
   PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
   return queued;
 }

@@ -6,7 +6,9 @@
 //   1. receives every queued datagram in one recvmmsg batch;
 //   2. for each: size -> parse -> session lookup -> tag -> replay window; a datagram that
 //      fails a step is counted under that step's name and dropped; a good one is
-//      rendered at once (RenderSession::Tick on the current snapshot) and its command
+//      rendered at once (RenderSession::Tick on the current snapshot, under the
+//      session's work budget: a tick over it sends the last safe force, flagged
+//      OVERRUN, so no session's tick can hold up the others for long) and its command
 //      joins the reply batch;
 //   3. sends the replies in one sendmmsg;
 //   4. each millisecond, ticks sessions whose states stopped: the watchdog ramps their

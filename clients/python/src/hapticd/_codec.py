@@ -293,6 +293,7 @@ def session_telemetry_from(message: pb.SessionTelemetry) -> SessionTelemetry:
         watchdog_trips=message.watchdog_trips,
         passivity_activations=message.passivity_activations,
         tick_us_max=message.tick_us_max,
+        tick_overruns=message.tick_overruns,
     )
 
 

@@ -42,8 +42,9 @@ class Command:
     """A command from the server: the state's sequence it answers (0: a watchdog
     command), force (N) and torque (N·m) to render (impedance), position and orientation
     (w, x, y, z) to take (admittance), the avatar's position (m), contact, whether the
-    watchdog is ramping the force down, the snapshot's scene version, and the measured
-    round trip (ns)."""
+    watchdog is ramping the force down, whether the tick overran the server's work budget
+    (the force is then the last safe one and the avatar did not move), the snapshot's
+    scene version, and the measured round trip (ns)."""
 
     sequence: int
     force: FloatArray
@@ -53,6 +54,7 @@ class Command:
     avatar: FloatArray
     contact: bool
     watchdog: bool
+    overrun: bool
     scene_version: int
     rtt_ns: int
 
@@ -103,6 +105,7 @@ def _command(message: pb.DeviceCommand, rtt_ns: int) -> Command:
         avatar=_vec3(message.avatar),
         contact=message.contact,
         watchdog=bool(message.flags & pb.COMMAND_FLAGS_WATCHDOG),
+        overrun=bool(message.flags & pb.COMMAND_FLAGS_OVERRUN),
         scene_version=message.scene_version,
         rtt_ns=rtt_ns,
     )

@@ -158,7 +158,8 @@ class SessionTelemetry:
     """One session as the server sees it: state ("waiting", "active", "ramping",
     "timed_out", "closed"), the last force (N), device and avatar positions (m), the
     device's reported round trip (µs), and its counters. tick_us_max is the longest
-    render tick since the previous sample."""
+    render tick since the previous sample; tick_overruns counts the ticks that spent the
+    server's work budget (--tick-work-budget)."""
 
     session_id: int
     state: str
@@ -180,6 +181,7 @@ class SessionTelemetry:
     watchdog_trips: int
     passivity_activations: int
     tick_us_max: float
+    tick_overruns: int
 
 
 @dataclass(frozen=True)

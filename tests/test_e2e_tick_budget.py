@@ -1,0 +1,66 @@
+"""End to end, the tick work budget (--tick-work-budget): on a real hapticd process over
+real UDP, a device pushed through a stack of triangles that no BVH can split gets its
+commands flagged overrun (the last safe force, the avatar held) and counted in its
+telemetry, while a second session pressing a box beside it renders k d on every state
+and never overruns. A budget out of range is refused by name."""
+
+import subprocess
+
+import hapticd
+import numpy as np
+import pytest
+from server_process import running_server
+
+TRIANGLES = 20000
+BUDGET = 2000
+
+
+def unsplittable_stack(n):
+    """n different triangles in the plane z = 0.05 at x = -1, all with one bounding box."""
+    apex_x = np.linspace(-1.1, -0.9, n)
+    vertices = np.concatenate(
+        [[[-1.1, -0.1, 0.05], [-0.9, -0.1, 0.05]], np.stack([apex_x, np.full(n, 0.1), np.full(n, 0.05)], 1)]
+    )
+    triangles = np.stack([np.zeros(n, int), np.ones(n, int), np.arange(n) + 2], 1)
+    return vertices, triangles
+
+
+def test_a_session_in_a_pathological_spot_overruns_alone(bin_dir):
+    with running_server(bin_dir, "--log-level", "warning", "--tick-work-budget", str(BUDGET)) as server:
+        with hapticd.connect(server.tcp, timeout_s=30) as client:
+            client.clear_scene()
+            client.add_box("box", (0.05, 0.05, 0.05), position=(0, 0, 0.05), material={"stiffness": 2000})
+            vertices, triangles = unsplittable_stack(TRIANGLES)
+            client.add_mesh("stack", vertices, triangles, "mesh", material={"stiffness": 2000})
+            heavy_info = client.open_session("impedance", start=(-1, 0.02, 0.07))
+            light_info = client.open_session("impedance", start=(0.01, 0.02, 0.12))
+            with hapticd.DeviceSession(heavy_info) as heavy, hapticd.DeviceSession(light_info) as light:
+                light_commands, heavy_commands = [], []
+                # the light device presses 2 mm into the box while the heavy one goes
+                # down through the stack and stays below it
+                light_path = np.concatenate([np.linspace(0.12, 0.098, 100), np.full(200, 0.098)])
+                heavy_path = np.concatenate([np.linspace(0.07, 0.04, 100), np.full(200, 0.04)])
+                for light_z, heavy_z in zip(light_path, heavy_path, strict=True):
+                    light_commands.append(light.exchange((0.01, 0.02, light_z), timeout_s=1.0))
+                    heavy_commands.append(heavy.exchange((-1, 0.02, heavy_z), timeout_s=1.0))
+                stats = client.stats()
+            assert all(c is not None for c in light_commands + heavy_commands), "a state went unanswered"
+            assert not any(c.overrun for c in light_commands)
+            assert light_commands[-1].force[2] == pytest.approx(2000 * 0.002, rel=0.01)
+            assert light.counters.lost == 0
+            overruns = [c for c in heavy_commands if c.overrun]
+            assert len(overruns) > 100
+            # the proxy never got through: the held avatar stays above the stack's plane
+            assert all(c.avatar[2] >= 0.05 for c in overruns)
+            by_id = {s.session_id: s for s in stats.sessions}
+            assert by_id[light_info.session_id].tick_overruns == 0
+            assert by_id[heavy_info.session_id].tick_overruns == len(overruns)
+
+
+@pytest.mark.parametrize("value", ["99", "10000001", "many"])
+def test_a_budget_out_of_range_is_refused_by_name(bin_dir, value):
+    result = subprocess.run(
+        [str(bin_dir / "hapticd"), "--tick-work-budget", value], capture_output=True, text=True, timeout=10
+    )
+    assert result.returncode == 2
+    assert "--tick-work-budget" in result.stderr and value in result.stderr
