@@ -102,16 +102,24 @@ Vector3 CarryProxy(const scene::SceneSnapshot& scene, const Vector3& x, double r
                    bool scene_changed) {
   if (!x.allFinite()) return x;
   Vector3 carried = x;
-  // a proxy resting on (within a micrometre of) a kinematic object moves with it
-  bool any_kinematic = false;
-  for (const scene::SceneObject& object : scene.objects()) {
-    if (!geometry::WorkMeter::Charge(1)) break;
-    if (object.motion != scene::Motion::kKinematic) continue;
-    any_kinematic = true;
-    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(x), r + kRestingGap);
-    if (!probe.found || probe.signed_distance > r + kRestingGap) continue;
-    carried += dt * object.CalcPointVelocity(object.X_WB.ToWorld(probe.point_B));
-    break;
+  // a proxy resting on (within a micrometre of) a kinematic object moves with it: the
+  // first such object in the scene, among those near it
+  const bool any_kinematic = !scene.kinematic_objects().empty();
+  if (any_kinematic) {
+    const double reach = r + kRestingGap;
+    int carrier = -1;
+    Vector3 carrier_point_W = Vector3::Zero();
+    scene.ForEachObjectNear({x - Vector3::Constant(reach), x + Vector3::Constant(reach)}, [&](int i) {
+      if (!geometry::WorkMeter::Charge(1)) return false;
+      const scene::SceneObject& object = scene.object(i);
+      if (object.motion != scene::Motion::kKinematic || (carrier >= 0 && i > carrier)) return true;
+      const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(x), reach);
+      if (!probe.found || probe.signed_distance > reach) return true;
+      carrier = i;
+      carrier_point_W = object.X_WB.ToWorld(probe.point_B);
+      return true;
+    });
+    if (carrier >= 0) carried += dt * scene.object(carrier).CalcPointVelocity(carrier_point_W);
   }
   // an object that moved into the proxy (or appeared around it) pushes it out
   if (!any_kinematic && !scene_changed) return carried;

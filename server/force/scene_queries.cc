@@ -20,22 +20,27 @@ SceneContact FindDeepestContact(const scene::SceneSnapshot& scene, const Vector3
   SceneContact deepest;
   if (!c_W.allFinite() || !(r >= 0) || !(max_gap >= 0)) return deepest;
   const double reach = r + max_gap;
-  for (int i = 0; i < scene.num_objects(); ++i) {
-    if (!geometry::WorkMeter::Charge(1)) break;
+  const geometry::Aabb near{c_W - Vector3::Constant(reach), c_W + Vector3::Constant(reach)};
+  scene.ForEachObjectNear(near, [&](int i) {
+    if (!geometry::WorkMeter::Charge(1)) return false;
     const scene::SceneObject& object = scene.object(i);
     // skip objects whose box is out of reach
-    if (DistanceSquaredToBox(object.bounds_W, c_W) > reach * reach) continue;
+    if (DistanceSquaredToBox(object.bounds_W, c_W) > reach * reach) return true;
     const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(c_W), reach);
-    if (!probe.found) continue;
+    if (!probe.found) return true;
     const double depth = r - probe.signed_distance;
-    if (depth < -max_gap) continue;
-    if (deepest.object >= 0 && depth <= deepest.depth) continue;
+    if (depth < -max_gap) return true;
+    // the deepest; of equally deep ones, the first in the scene
+    if (deepest.object >= 0 && (depth < deepest.depth || (depth == deepest.depth && i > deepest.object))) {
+      return true;
+    }
     deepest.object = i;
     deepest.depth = depth;
     deepest.point_W = object.X_WB.ToWorld(probe.point_B);
     deepest.normal_W = object.X_WB.DirectionToWorld(probe.normal_B);
     deepest.triangle = probe.triangle;
-  }
+    return true;
+  });
   return deepest;
 }
 
@@ -45,20 +50,23 @@ SceneSweep SweepSphereScene(const scene::SceneSnapshot& scene, const Vector3& a_
   if (!a_W.allFinite() || !b_W.allFinite() || !(r >= 0) || a_W == b_W) return first;
   // the box swept by the sphere, to skip objects it cannot reach
   geometry::Aabb swept{a_W.cwiseMin(b_W) - Vector3::Constant(r), a_W.cwiseMax(b_W) + Vector3::Constant(r)};
-  for (int i = 0; i < scene.num_objects(); ++i) {
-    if (!geometry::WorkMeter::Charge(1)) break;
+  scene.ForEachObjectNear(swept, [&](int i) {
+    if (!geometry::WorkMeter::Charge(1)) return false;
     const scene::SceneObject& object = scene.object(i);
-    if (!geometry::AabbsOverlap(swept, object.bounds_W)) continue;
     const ShapeSweep sweep =
         SweepSphereShape(object.shape, object.X_WB.ToBody(a_W), object.X_WB.ToBody(b_W), r);
-    if (!sweep.hit || (first.hit && sweep.t >= first.t)) continue;
+    // the first contact; of simultaneous ones, the first object in the scene
+    if (!sweep.hit || (first.hit && (sweep.t > first.t || (sweep.t == first.t && i > first.object)))) {
+      return true;
+    }
     first.hit = true;
     first.object = i;
     first.t = sweep.t;
     first.point_W = object.X_WB.ToWorld(sweep.point_B);
     first.normal_W = object.X_WB.DirectionToWorld(sweep.normal_B);
     first.triangle = sweep.triangle;
-  }
+    return true;
+  });
   return first;
 }
 

@@ -19,7 +19,9 @@ struct SceneContact {
 };
 
 // The object that a sphere of radius r >= 0 at c_W penetrates deepest (largest depth),
-// among objects within max_gap (>= 0, m) of touching it. Real-time safe.
+// among objects within max_gap (>= 0, m) of touching it; of equally deep ones, the
+// first in the scene. Only the objects near c_W are visited (the snapshot's broad
+// phase). Real-time safe.
 SceneContact FindDeepestContact(const scene::SceneSnapshot& scene, const Vector3& c_W, double r,
                                 double max_gap);
 
@@ -33,7 +35,9 @@ struct SceneSweep {
 };
 
 // Earliest first contact over all objects of a sphere of radius r >= 0 swept a_W -> b_W
-// (SweepSphereShape's rule for surfaces touched at the start). Real-time safe.
+// (SweepSphereShape's rule for surfaces touched at the start); of simultaneous ones,
+// the first object in the scene. Only the objects the sweep's box meets are visited.
+// Real-time safe.
 SceneSweep SweepSphereScene(const scene::SceneSnapshot& scene, const Vector3& a_W,
                             const Vector3& b_W, double r);
 

@@ -343,30 +343,7 @@ void DynamicAabbTree::FindOverlappingPairs(std::vector<ProxyPair>* pairs) const 
 
 void DynamicAabbTree::Query(const Aabb& box, std::vector<int>* proxies) const {
   proxies->clear();
-  if (root_ == kNullNode) return;
-  // Depth-first; each level leaves at most one node behind (<= height + 2 entries).
-  std::array<int, kFixedStackSize> fixed_stack;
-  std::vector<int> heap_stack;
-  int* stack = fixed_stack.data();
-  const int needed = height() + 2;
-  if (needed > kFixedStackSize) {
-    heap_stack.resize(needed);
-    stack = heap_stack.data();
-  }
-  int top = 0;
-  stack[top++] = root_;
-  while (top > 0) {
-    const int index = stack[--top];
-    const Node& node = nodes_[index];
-    if (!AabbsOverlap(node.box, box)) continue;
-    if (node.child0 == kNullNode) {
-      // A leaf: answer with the object's own box.
-      if (AabbsOverlap(boxes_[index], box)) proxies->push_back(index);
-    } else {
-      stack[top++] = node.child0;
-      stack[top++] = node.child1;
-    }
-  }
+  ForEachOverlap(box, [proxies](int proxy) { proxies->push_back(proxy); });
 }
 
 int DynamicAabbTree::CheckSubtree(int node, int parent, bool* ok) const {

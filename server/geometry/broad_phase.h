@@ -24,6 +24,7 @@
 // counts). Nodes live in one preallocated array with a free list; proxy ids are node
 // indices and stay valid until removed.
 
+#include <type_traits>
 #include <vector>
 
 #include "server/geometry/aabb.h"
@@ -39,6 +40,9 @@ struct ProxyPair {
 class DynamicAabbTree {
  public:
   static constexpr int kNullNode = -1;
+  // Depth-first walks leave at most one node behind per level: height + 2 entries, and
+  // the height stays below 1.81 log2(n) + 2 (< 62 for n < 2^31).
+  static constexpr int kMaxWalk = 64;
 
   // Preallocates room for capacity proxies (2 capacity - 1 nodes); more proxies grow
   // the storage (an allocation). margin >= 0 fattens every box, in metres.
@@ -66,6 +70,35 @@ class DynamicAabbTree {
   // Writes the proxies whose boxes overlap `box`, in no particular order.
   // Allocation-free while proxies->capacity() suffices. An empty box finds nothing.
   void Query(const Aabb& box, std::vector<int>* proxies) const;
+
+  // Calls visit(proxy) for each proxy whose box overlaps `box`, in no particular order;
+  // a visit that returns false ends the walk. Never allocates (real-time safe): the
+  // walk's stack holds height + 2 entries, and the height rule keeps that under
+  // kMaxWalk for any number of proxies an int can count.
+  template <typename Visit>
+  void ForEachOverlap(const Aabb& box, Visit visit) const {
+    if (root_ == kNullNode) return;
+    int stack[kMaxWalk];
+    int top = 0;
+    stack[top++] = root_;
+    while (top > 0) {
+      const int index = stack[--top];
+      const Node& node = nodes_[index];
+      if (!AabbsOverlap(node.box, box)) continue;
+      if (node.child0 == kNullNode) {
+        // a leaf: answer with the object's own box
+        if (!AabbsOverlap(boxes_[index], box)) continue;
+        if constexpr (std::is_same_v<decltype(visit(index)), bool>) {
+          if (!visit(index)) return;
+        } else {
+          visit(index);
+        }
+      } else {
+        stack[top++] = node.child0;
+        stack[top++] = node.child1;
+      }
+    }
+  }
 
   // True when proxy is the id of a live proxy.
   bool contains(int proxy) const {

@@ -264,7 +264,7 @@ SceneBuilder::SceneBuilder(SceneSettings settings) : settings_(settings) {
 }
 
 SceneBuilder::SceneBuilder(const SceneSnapshot& base)
-    : settings_(base.settings()), objects_(base.objects().begin(), base.objects().end()) {}
+    : settings_(base.settings()), objects_(base.objects().begin(), base.objects().end()), index_(base.index()) {}
 
 const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
   if (std::any_of(objects_.begin(), objects_.end(),
@@ -279,6 +279,7 @@ const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
   RequireTriangleBudget(objects_, object, nullptr, settings_.budgets);
   AttachRayBackend(spec, object);
   objects_.push_back(std::move(object));
+  index_.Insert(num_objects() - 1, objects_.back().bounds_W);
   return objects_.back();
 }
 
@@ -288,6 +289,7 @@ const SceneObject& SceneBuilder::Update(const ObjectSpec& spec) {
   RequireTriangleBudget(objects_, object, &target, settings_.budgets);
   AttachRayBackend(spec, object);
   target = std::move(object);
+  index_.Move(static_cast<int>(&target - objects_.data()), target.bounds_W);
   return target;
 }
 
@@ -311,7 +313,9 @@ void SceneBuilder::AttachRayBackend(const ObjectSpec& spec, SceneObject& object)
 
 void SceneBuilder::Remove(std::string_view name) {
   SceneObject& target = FindOrThrow(name);
-  objects_.erase(objects_.begin() + (&target - objects_.data()));
+  const int index = static_cast<int>(&target - objects_.data());
+  objects_.erase(objects_.begin() + index);
+  index_.Erase(index);
 }
 
 void SceneBuilder::SetMaterial(std::string_view name, const Material& material) {
@@ -332,7 +336,9 @@ void SceneBuilder::MoveKinematic(std::string_view name, const Pose& X_WB, const 
   }
   ValidatePose(X_WB, object);
   ValidateVelocities(target.motion, v_WB, w_WB, object);
+  const Vector3 before = target.X_WB.translation;
   Place(target, X_WB, v_WB, w_WB);
+  index_.Move(static_cast<int>(&target - objects_.data()), target.bounds_W, target.X_WB.translation - before);
 }
 
 bool SceneBuilder::AdvanceKinematic(double dt) {
@@ -352,7 +358,9 @@ bool SceneBuilder::AdvanceKinematic(double dt) {
       X_WB.rotation = Eigen::AngleAxisd(angle, object.w_WB.normalized()).toRotationMatrix() * X_WB.rotation;
     }
     X_WB.translation += v_WB * dt;
+    const Vector3 before = object.X_WB.translation;
     Place(object, X_WB, v_WB, object.w_WB);
+    index_.Move(static_cast<int>(&object - objects_.data()), object.bounds_W, object.X_WB.translation - before);
     moved = true;
   }
   return moved;
@@ -364,7 +372,7 @@ std::shared_ptr<const SceneSnapshot> SceneBuilder::Build(uint64_t version) const
     throw SceneError("version is " + std::to_string(version) +
                      "; snapshot versions run from 1 to 2^64 - 2");
   }
-  return std::make_shared<const SceneSnapshot>(objects_, settings_, version);
+  return std::make_shared<const SceneSnapshot>(objects_, index_, settings_, version);
 }
 
 SceneObject& SceneBuilder::FindOrThrow(std::string_view name) {

@@ -89,6 +89,8 @@ class SceneBuilder {
 
   SceneSettings settings_;
   std::vector<SceneObject> objects_;
+  // The broad phase over objects_, kept up to date by every edit.
+  ObjectIndex index_;
   // Created when the first mesh asks for the Embree backend; shared by its meshes.
   std::shared_ptr<const embree::EmbreeDevice> embree_device_;
 };

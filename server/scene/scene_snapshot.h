@@ -9,6 +9,7 @@
 #include <string_view>
 #include <vector>
 
+#include "server/scene/object_index.h"
 #include "server/scene/scene_limits.h"
 #include "server/scene/scene_object.h"
 
@@ -24,6 +25,9 @@ struct SceneSettings {
 
 class SceneSnapshot {
  public:
+  // index: the broad phase over objects (the builder keeps one up to date); without
+  // one, it is built here.
+  SceneSnapshot(std::vector<SceneObject> objects, ObjectIndex index, SceneSettings settings, uint64_t version);
   SceneSnapshot(std::vector<SceneObject> objects, SceneSettings settings, uint64_t version);
 
   // Increases with every published edit.
@@ -34,9 +38,22 @@ class SceneSnapshot {
   const SceneObject& object(int i) const { return objects_[i]; }
   // Index of the object named name, or -1.
   int FindObject(std::string_view name) const;
+  const ObjectIndex& index() const { return index_; }
+  // The kinematic objects' indices, ascending.
+  std::span<const int> kinematic_objects() const { return kinematic_; }
+
+  // Calls visit(i) for each object i whose bounds_W overlap box, each once, in no
+  // particular order (unbounded objects always), until a visit returns false.
+  // Real-time safe.
+  template <typename Visit>
+  void ForEachObjectNear(const geometry::Aabb& box, Visit visit) const {
+    index_.ForEachNear(box, visit);
+  }
 
  private:
   std::vector<SceneObject> objects_;
+  ObjectIndex index_;
+  std::vector<int> kinematic_;
   SceneSettings settings_;
   uint64_t version_;
 };

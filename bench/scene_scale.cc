@@ -1,0 +1,157 @@
+// How a tick scales with the scene (issue 12's scale aims): per-tick percentiles of a
+// point god-object and a 5 mm finger proxy sliding pressed into a box, in a scene of 10
+// objects and in one of 10,000 (spheres, boxes, capsules and small meshes, 2 to 10 cm,
+// in a 4 m cube; 1% of them, and at least one, kinematic and moving), measured in the
+// same run; and what moving 100 kinematic objects costs: SceneBuilder::AdvanceKinematic
+// (the broad phase's incremental update included) and the Build of the snapshot that
+// publishes it.
+//
+//   scene_scale [--ticks N]   -> Markdown tables on stdout
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "server/force/render_session.h"
+#include "server/geometry/mesh_generators.h"
+#include "server/scene/scene_builder.h"
+
+namespace {
+
+using hapticd::geometry::Vector3;
+using namespace hapticd;
+using Clock = std::chrono::steady_clock;
+
+double Micros(Clock::time_point begin, Clock::time_point end) {
+  return std::chrono::duration<double, std::micro>(end - begin).count();
+}
+
+struct Percentiles {
+  double p50, p99, p999, max;
+};
+
+Percentiles Of(std::vector<double> samples) {
+  std::sort(samples.begin(), samples.end());
+  const auto at = [&](double q) { return samples[std::min<size_t>(samples.size() - 1, q * samples.size())]; };
+  return {at(0.5), at(0.99), at(0.999), samples.back()};
+}
+
+// The box the device presses (10 cm, top at z = 0.05) and n - 1 others around it,
+// none within 20 cm of it.
+scene::SceneBuilder MakeScene(int n, int kinematic) {
+  scene::SceneSettings settings;
+  settings.budgets.max_objects = n;
+  scene::SceneBuilder builder(settings);
+  scene::ObjectSpec box;
+  box.name = "pressed";
+  box.shape = scene::BoxShape{Vector3::Constant(0.05)};
+  box.material.stiffness = 2000;
+  builder.Add(box);
+  std::mt19937_64 random(5);
+  std::uniform_real_distribution<double> coordinate(-2, 2), size(0.01, 0.05);
+  const geometry::TriangleMesh ball = geometry::MakeIcosphere(3, 1.0);
+  for (int i = 1; i < n; ++i) {
+    scene::ObjectSpec spec;
+    spec.name = "o" + std::to_string(i);
+    spec.material.stiffness = 1000;
+    do {
+      spec.X_WB.translation = Vector3(coordinate(random), coordinate(random), coordinate(random));
+    } while (spec.X_WB.translation.norm() < 0.2);
+    const double s = size(random);
+    switch (i % 4) {
+      case 0: spec.shape = scene::SphereShape{s}; break;
+      case 1: spec.shape = scene::BoxShape{Vector3(s, 0.6 * s, 0.3 * s)}; break;
+      case 2: spec.shape = scene::CapsuleShape{0.4 * s, s}; break;
+      default: {
+        scene::MeshSpec mesh;
+        for (const Vector3& v : ball.vertices()) mesh.vertices.push_back(s * v);
+        mesh.triangles = ball.triangles();
+        mesh.pin = scene::Representation::kMesh;
+        spec.shape = mesh;
+      }
+    }
+    if (i <= kinematic) {
+      spec.motion = scene::Motion::kKinematic;
+      spec.v_WB = Vector3(0.1, 0.05, 0);
+      spec.w_WB = Vector3(0, 0, 1);
+    }
+    builder.Add(spec);
+  }
+  return builder;
+}
+
+Percentiles MeasureTicks(const scene::SceneSnapshot& scene, force::ForceMethod method, double radius, int ticks) {
+  force::SessionSettings settings;
+  settings.avatar.type = radius > 0 ? force::AvatarType::kSphere : force::AvatarType::kPoint;
+  settings.avatar.radius = radius;
+  settings.avatar.method = method;
+  force::RenderSession session(settings, int64_t{1} << 40);
+  session.Reset(Vector3(0, 0, 0.08));
+  std::vector<double> samples(ticks);
+  for (int tick = -ticks / 10; tick < ticks; ++tick) {
+    const double t = 1e-3 * (tick + ticks / 10);
+    force::DeviceInput input;
+    // a circle of 3 cm on the box's top, pressed 1 mm in
+    input.p_WD = Vector3(0.03 * std::cos(5 * t), 0.03 * std::sin(5 * t), 0.05 + radius - 0.001);
+    input.v_WD = 0.15 * Vector3(-std::sin(5 * t), std::cos(5 * t), 0);
+    const auto begin = Clock::now();
+    const force::TickOutput out = session.Tick(scene, input, 1e-3);
+    const auto end = Clock::now();
+    asm volatile("" : : "g"(&out) : "memory");
+    if (tick >= 0) samples[tick] = Micros(begin, end);
+  }
+  return Of(samples);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int ticks = 20000;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--ticks") && i + 1 < argc) {
+      ticks = std::max(1000, std::atoi(argv[++i]));
+    } else {
+      std::fprintf(stderr, "usage: %s [--ticks N]\n", argv[0]);
+      return 2;
+    }
+  }
+  struct Avatar {
+    const char* name;
+    force::ForceMethod method;
+    double radius;
+  };
+  const Avatar avatars[] = {{"point god-object", force::ForceMethod::kGodObject, 0},
+                            {"5 mm sphere finger proxy", force::ForceMethod::kFingerProxy, 0.005}};
+  std::printf("| objects | avatar | p50 µs | p99 µs | p99.9 µs | max µs |\n|---:|---|---:|---:|---:|---:|\n");
+  for (const int n : {10, 10000}) {
+    const auto scene = MakeScene(n, std::max(1, n / 100)).Build(1);
+    for (const Avatar& a : avatars) {
+      const Percentiles p = MeasureTicks(*scene, a.method, a.radius, ticks);
+      std::printf("| %d | %s | %.2f | %.2f | %.2f | %.1f |\n", n, a.name, p.p50, p.p99, p.p999, p.max);
+      std::fflush(stdout);
+    }
+  }
+  // the moves: 100 kinematic objects among 10,000, advanced by 1 ms, then published
+  scene::SceneBuilder builder = MakeScene(10000, 100);
+  std::vector<double> advance, build;
+  for (int i = 0; i < 2000; ++i) {
+    const auto begin = Clock::now();
+    builder.AdvanceKinematic(1e-3);
+    const auto moved = Clock::now();
+    const auto snapshot = builder.Build(2 + i);
+    const auto built = Clock::now();
+    asm volatile("" : : "g"(snapshot.get()) : "memory");
+    advance.push_back(Micros(begin, moved));
+    build.push_back(Micros(moved, built));
+  }
+  const Percentiles a = Of(advance), b = Of(build);
+  std::printf("\n| 100 kinematic moves among 10,000 objects | p50 µs | p99 µs | max µs |\n|---|---:|---:|---:|\n");
+  std::printf("| AdvanceKinematic (poses, bounds, broad phase) | %.1f | %.1f | %.1f |\n", a.p50, a.p99, a.max);
+  std::printf("| Build (the snapshot that publishes them) | %.1f | %.1f | %.1f |\n", b.p50, b.p99, b.max);
+  return 0;
+}
