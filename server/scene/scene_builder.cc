@@ -245,11 +245,11 @@ std::size_t KeptTriangles(const SceneObject& object) {
 }
 
 // The scene's triangle budget, with `added` kept in place of `replaced` (or nothing).
-void RequireTriangleBudget(const std::vector<SceneObject>& objects, const SceneObject& added,
-                           const SceneObject* replaced, const SceneBudgets& budgets) {
+void RequireTriangleBudget(const SharedObjects& objects, const SceneObject& added, const SceneObject* replaced,
+                           const SceneBudgets& budgets) {
   std::size_t total = KeptTriangles(added);
-  for (const SceneObject& object : objects) {
-    if (&object != replaced) total += KeptTriangles(object);
+  for (const auto& object : objects) {
+    if (object.get() != replaced) total += KeptTriangles(*object);
   }
   if (total > budgets.max_triangles) {
     throw SceneError(ObjectField(added.name) + " would bring the scene to " + std::to_string(total) +
@@ -264,13 +264,10 @@ SceneBuilder::SceneBuilder(SceneSettings settings) : settings_(settings) {
 }
 
 SceneBuilder::SceneBuilder(const SceneSnapshot& base)
-    : settings_(base.settings()), objects_(base.objects().begin(), base.objects().end()), index_(base.index()) {}
+    : settings_(base.settings()), objects_(base.shared_objects()), index_(base.index()) {}
 
 const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
-  if (std::any_of(objects_.begin(), objects_.end(),
-                  [&](const SceneObject& o) { return o.name == spec.name; })) {
-    throw SceneError(ObjectField(spec.name) + " already exists");
-  }
+  if (FindIndex(spec.name) >= 0) throw SceneError(ObjectField(spec.name) + " already exists");
   if (objects_.size() >= settings_.budgets.max_objects) {
     throw SceneError("the scene has " + std::to_string(objects_.size()) + " objects; the budget is " +
                      std::to_string(settings_.budgets.max_objects) + " (max_objects)");
@@ -278,19 +275,20 @@ const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
   SceneObject object = MakeObject(spec, settings_);
   RequireTriangleBudget(objects_, object, nullptr, settings_.budgets);
   AttachRayBackend(spec, object);
-  objects_.push_back(std::move(object));
-  index_.Insert(num_objects() - 1, objects_.back().bounds_W);
-  return objects_.back();
+  objects_.push_back(std::make_shared<SceneObject>(std::move(object)));
+  index_.Insert(num_objects() - 1, objects_.back()->bounds_W);
+  return *objects_.back();
 }
 
 const SceneObject& SceneBuilder::Update(const ObjectSpec& spec) {
-  SceneObject& target = FindOrThrow(spec.name);
+  const int index = IndexOrThrow(spec.name);
   SceneObject object = MakeObject(spec, settings_);
-  RequireTriangleBudget(objects_, object, &target, settings_.budgets);
+  RequireTriangleBudget(objects_, object, objects_[index].get(), settings_.budgets);
   AttachRayBackend(spec, object);
-  target = std::move(object);
-  index_.Move(static_cast<int>(&target - objects_.data()), target.bounds_W);
-  return target;
+  // a new object: the snapshots that hold the old one keep it
+  objects_[index] = std::make_shared<SceneObject>(std::move(object));
+  index_.Move(index, objects_[index]->bounds_W);
+  return *objects_[index];
 }
 
 void SceneBuilder::AttachRayBackend(const ObjectSpec& spec, SceneObject& object) {
@@ -312,40 +310,42 @@ void SceneBuilder::AttachRayBackend(const ObjectSpec& spec, SceneObject& object)
 }
 
 void SceneBuilder::Remove(std::string_view name) {
-  SceneObject& target = FindOrThrow(name);
-  const int index = static_cast<int>(&target - objects_.data());
+  const int index = IndexOrThrow(name);
   objects_.erase(objects_.begin() + index);
   index_.Erase(index);
 }
 
 void SceneBuilder::SetMaterial(std::string_view name, const Material& material) {
-  SceneObject& target = FindOrThrow(name);
+  const int index = IndexOrThrow(name);
   if (std::optional<std::string> problem =
           ValidateMaterial(material, ObjectField(name) + ".material")) {
     throw SceneError(*problem);
   }
-  target.material = material;
+  Writable(index).material = material;
 }
 
 void SceneBuilder::MoveKinematic(std::string_view name, const Pose& X_WB, const Vector3& v_WB,
                                  const Vector3& w_WB) {
-  SceneObject& target = FindOrThrow(name);
+  const int index = IndexOrThrow(name);
   const std::string object = ObjectField(name);
-  if (target.motion != Motion::kKinematic) {
+  if (objects_[index]->motion != Motion::kKinematic) {
     throw SceneError(object + " is static; only a kinematic object can be moved");
   }
   ValidatePose(X_WB, object);
-  ValidateVelocities(target.motion, v_WB, w_WB, object);
+  ValidateVelocities(Motion::kKinematic, v_WB, w_WB, object);
+  SceneObject& target = Writable(index);
   const Vector3 before = target.X_WB.translation;
   Place(target, X_WB, v_WB, w_WB);
-  index_.Move(static_cast<int>(&target - objects_.data()), target.bounds_W, target.X_WB.translation - before);
+  index_.Move(index, target.bounds_W, target.X_WB.translation - before);
 }
 
 bool SceneBuilder::AdvanceKinematic(double dt) {
   if (!(dt >= 0) || !std::isfinite(dt)) return false;
   bool moved = false;
-  for (SceneObject& object : objects_) {
-    if (object.motion != Motion::kKinematic || (object.v_WB.isZero(0) && object.w_WB.isZero(0))) continue;
+  for (int index = 0; index < num_objects(); ++index) {
+    const SceneObject& current = *objects_[index];
+    if (current.motion != Motion::kKinematic || (current.v_WB.isZero(0) && current.w_WB.isZero(0))) continue;
+    SceneObject& object = Writable(index);
     // back from the shape's frame S to the client's frame B, whose origin moves at v_WB
     const Pose& X_MS = object.representation.X_MS;
     Pose X_WB{object.X_WB.rotation * X_MS.rotation.transpose(), Vector3::Zero()};
@@ -360,7 +360,7 @@ bool SceneBuilder::AdvanceKinematic(double dt) {
     X_WB.translation += v_WB * dt;
     const Vector3 before = object.X_WB.translation;
     Place(object, X_WB, v_WB, object.w_WB);
-    index_.Move(static_cast<int>(&object - objects_.data()), object.bounds_W, object.X_WB.translation - before);
+    index_.Move(index, object.bounds_W, object.X_WB.translation - before);
     moved = true;
   }
   return moved;
@@ -375,11 +375,25 @@ std::shared_ptr<const SceneSnapshot> SceneBuilder::Build(uint64_t version) const
   return std::make_shared<const SceneSnapshot>(objects_, index_, settings_, version);
 }
 
-SceneObject& SceneBuilder::FindOrThrow(std::string_view name) {
-  for (SceneObject& object : objects_) {
-    if (object.name == name) return object;
+int SceneBuilder::FindIndex(std::string_view name) const {
+  for (int i = 0; i < num_objects(); ++i) {
+    if (objects_[i]->name == name) return i;
   }
-  throw SceneError(ObjectField(name) + " does not exist");
+  return -1;
+}
+
+int SceneBuilder::IndexOrThrow(std::string_view name) const {
+  const int index = FindIndex(name);
+  if (index < 0) throw SceneError(ObjectField(name) + " does not exist");
+  return index;
+}
+
+SceneObject& SceneBuilder::Writable(int index) {
+  // shared with a snapshot: copy it first (only this thread adds holders, so a count of
+  // one cannot grow behind our back). Every object is made non-const (make_shared
+  // <SceneObject>), so writing through the copy's pointer is sound.
+  if (objects_[index].use_count() > 1) objects_[index] = std::make_shared<SceneObject>(*objects_[index]);
+  return const_cast<SceneObject&>(*objects_[index]);
 }
 
 }  // namespace hapticd::scene

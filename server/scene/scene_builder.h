@@ -83,12 +83,18 @@ class SceneBuilder {
   std::shared_ptr<const SceneSnapshot> Build(uint64_t version) const;
 
  private:
-  SceneObject& FindOrThrow(std::string_view name);
+  // The index of the object named name: -1 when there is none, or throwing SceneError.
+  int FindIndex(std::string_view name) const;
+  int IndexOrThrow(std::string_view name) const;
+  // Object index, to be changed: copied first when a snapshot shares it.
+  SceneObject& Writable(int index);
   // Puts a mesh object on the Embree backend when its spec or the scene asks for it.
   void AttachRayBackend(const ObjectSpec& spec, SceneObject& object);
 
   SceneSettings settings_;
-  std::vector<SceneObject> objects_;
+  // Shared with the snapshots built from them: an edit replaces or copies the objects it
+  // changes and leaves the others shared.
+  SharedObjects objects_;
   // The broad phase over objects_, kept up to date by every edit.
   ObjectIndex index_;
   // Created when the first mesh asks for the Embree backend; shared by its meshes.

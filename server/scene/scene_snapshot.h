@@ -5,6 +5,8 @@
 // (snapshot_publisher.h). Everything here is const and safe to read from any thread.
 
 #include <cstdint>
+#include <memory>
+#include <ranges>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -23,19 +25,28 @@ struct SceneSettings {
   SceneBudgets budgets;
 };
 
+// A scene's objects, each shared by the snapshots (and the builder) that hold it: an
+// edit copies what it changes, not the scene. Each points to a non-const SceneObject
+// (SceneBuilder's copy-on-write relies on it).
+using SharedObjects = std::vector<std::shared_ptr<const SceneObject>>;
+
 class SceneSnapshot {
  public:
-  // index: the broad phase over objects (the builder keeps one up to date); without
-  // one, it is built here.
-  SceneSnapshot(std::vector<SceneObject> objects, ObjectIndex index, SceneSettings settings, uint64_t version);
-  SceneSnapshot(std::vector<SceneObject> objects, SceneSettings settings, uint64_t version);
+  // index: the broad phase over objects (the builder keeps one up to date).
+  SceneSnapshot(SharedObjects objects, ObjectIndex index, SceneSettings settings, uint64_t version);
+  // Copies the objects and builds their index (for tests).
+  SceneSnapshot(const std::vector<SceneObject>& objects, SceneSettings settings, uint64_t version);
 
   // Increases with every published edit.
   uint64_t version() const { return version_; }
   const SceneSettings& settings() const { return settings_; }
-  std::span<const SceneObject> objects() const { return objects_; }
+  // The objects in scene order, as const SceneObject&.
+  auto objects() const {
+    return std::views::transform(objects_, [](const auto& object) -> const SceneObject& { return *object; });
+  }
+  const SharedObjects& shared_objects() const { return objects_; }
   int num_objects() const { return static_cast<int>(objects_.size()); }
-  const SceneObject& object(int i) const { return objects_[i]; }
+  const SceneObject& object(int i) const { return *objects_[i]; }
   // Index of the object named name, or -1.
   int FindObject(std::string_view name) const;
   const ObjectIndex& index() const { return index_; }
@@ -51,7 +62,7 @@ class SceneSnapshot {
   }
 
  private:
-  std::vector<SceneObject> objects_;
+  SharedObjects objects_;
   ObjectIndex index_;
   std::vector<int> kinematic_;
   SceneSettings settings_;

@@ -413,6 +413,38 @@ TEST(SceneBuilder, StartsFromASnapshotSharingItsGeometry) {
   EXPECT_EQ(base->num_objects(), 2);
 }
 
+// An edit copies only what it changes: the objects it does not touch are the very
+// objects of the snapshots before it, and those snapshots keep their old versions of
+// the ones it does (a material, a kinematic move, an update, a removal).
+TEST(SceneBuilder, SnapshotsShareWhatAnEditDoesNotTouch) {
+  SceneBuilder builder;
+  for (int i = 0; i < 4; ++i) builder.Add(Sphere("s" + std::to_string(i)));
+  ObjectSpec moving = Sphere("moving");
+  moving.motion = Motion::kKinematic;
+  moving.v_WB = {1, 0, 0};
+  builder.Add(moving);
+  const auto before = builder.Build(1);
+  Material soft;
+  soft.stiffness = 10;
+  builder.SetMaterial("s1", soft);
+  builder.AdvanceKinematic(0.5);
+  builder.Remove("s3");
+  const auto after = builder.Build(2);
+  ASSERT_EQ(after->num_objects(), 4);
+  EXPECT_EQ(&after->object(0), &before->object(0));
+  EXPECT_EQ(&after->object(2), &before->object(2));
+  EXPECT_NE(&after->object(1), &before->object(1));
+  EXPECT_EQ(after->object(1).material.stiffness, 10);
+  EXPECT_EQ(before->object(1).material.stiffness, Sphere("s1").material.stiffness);
+  EXPECT_EQ(after->object(3).X_WB.translation.x(), before->object(4).X_WB.translation.x() + 0.5);
+  EXPECT_EQ(before->num_objects(), 5);
+  EXPECT_EQ(before->object(3).name, "s3");
+  // an edit after a build copies again; one before any build does not
+  builder.SetMaterial("s0", soft);
+  const SceneObject* copied = &builder.Build(3)->object(0);
+  EXPECT_NE(copied, &after->object(0));
+}
+
 TEST(SceneBuilder, MeshObjectsArePlacedThroughTheirRepresentation) {
   // a box mesh centred at (1, 0, 0) of its frame M, M placed at (0, 2, 0) turned about z
   const geometry::TriangleMesh box = geometry::MakeBoxMesh({0.5, 0.25, 0.125}, 2);
