@@ -1,6 +1,6 @@
 """End to end, the tick work budget (--tick-work-budget): on a real hapticd process over
 real UDP, a device pushed through a stack of triangles that no BVH can split gets its
-commands flagged overrun (the last safe force, the avatar held) and counted in its
+commands flagged overrun (the last safe force, the avatar held), each counted in its
 telemetry, while a second session pressing a box beside it renders k d on every state
 and never overruns. A budget out of range is refused by name."""
 
@@ -54,7 +54,10 @@ def test_a_session_in_a_pathological_spot_overruns_alone(bin_dir):
             assert all(c.avatar[2] >= 0.05 for c in overruns)
             by_id = {s.session_id: s for s in stats.sessions}
             assert by_id[light_info.session_id].tick_overruns == 0
-            assert by_id[heavy_info.session_id].tick_overruns == len(overruns)
+            # every flagged command is a counted overrun; ticks the server makes on its
+            # own while a state is late (the watchdog's) may overrun too, unanswered
+            heavy_telemetry = by_id[heavy_info.session_id]
+            assert len(overruns) <= heavy_telemetry.tick_overruns <= heavy_telemetry.ticks
 
 
 @pytest.mark.parametrize("value", ["99", "10000001", "many"])

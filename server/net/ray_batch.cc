@@ -1,5 +1,6 @@
 #include "server/net/ray_batch.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -99,9 +100,21 @@ v1::RayHits CastRayBatch(const scene::SceneSnapshot& scene, const v1::RayCastBat
     b_W[i] = origin + direction.normalized() * length;
   }
 
-  // every object, keeping each segment's earliest hit
+  // the objects the segments' box meets, in scene order, keeping each segment's
+  // earliest hit
+  geometry::Aabb reach;
+  for (int i = 0; i < n; ++i) {
+    reach.Extend(a_W[i]);
+    reach.Extend(b_W[i]);
+  }
+  std::vector<int> near;
+  scene.ForEachObjectNear(reach, [&](int index) {
+    near.push_back(index);
+    return true;
+  });
+  std::sort(near.begin(), near.end());
   std::vector<BatchHit> best(n);
-  for (int index = 0; index < scene.num_objects(); ++index) {
+  for (const int index : near) {
     const scene::SceneObject& object = scene.object(index);
     const auto* mesh = std::get_if<scene::MeshShape>(&object.shape);
     if (mesh != nullptr && mesh->embree) {
