@@ -215,7 +215,9 @@ v1::Reply ControlService::Dispatch(const v1::Request& request, ConnectionState& 
       v1::SceneDescription* description = reply.mutable_scene();
       description->set_version(snapshot->version());
       description->set_tolerance(snapshot->settings().tolerance);
-      for (const auto& object : snapshot->objects()) WriteObjectInfo(object, description->add_objects());
+      for (int i = 0; i < snapshot->num_objects(); ++i) {
+        WriteObjectInfo(snapshot->object(i), description->add_objects());
+      }
       return reply;
     }
     case R::kRayCast: return RayCast(request.ray_cast());

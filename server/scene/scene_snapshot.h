@@ -6,7 +6,6 @@
 
 #include <cstdint>
 #include <memory>
-#include <ranges>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -40,10 +39,6 @@ class SceneSnapshot {
   // Increases with every published edit.
   uint64_t version() const { return version_; }
   const SceneSettings& settings() const { return settings_; }
-  // The objects in scene order, as const SceneObject&.
-  auto objects() const {
-    return std::views::transform(objects_, [](const auto& object) -> const SceneObject& { return *object; });
-  }
   const SharedObjects& shared_objects() const { return objects_; }
   int num_objects() const { return static_cast<int>(objects_.size()); }
   const SceneObject& object(int i) const { return *objects_[i]; }

@@ -55,7 +55,8 @@ std::string Describe(const SceneBuilder& builder) {
   const auto snapshot = builder.Build(1);
   std::ostringstream out;
   out.precision(17);
-  for (const SceneObject& o : snapshot->objects()) {
+  for (int i = 0; i < snapshot->num_objects(); ++i) {
+    const SceneObject& o = snapshot->object(i);
     out << o.name << " " << ShapeTypeName(TypeOf(o.shape)) << " " << o.X_WB.rotation << " "
         << o.X_WB.translation.transpose() << " " << o.material.stiffness << " "
         << o.material.damping << " " << o.material.static_friction << " "
