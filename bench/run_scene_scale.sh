@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # How a render tick scales with the number of objects (10 against 10,000, in one run),
-# and what 100 kinematic moves a tick cost; writes bench/results/scene_scale.md with
-# the machine and the date.
+# what 100 kinematic moves a tick cost, and how an edit's cost grows with the scene
+# (10,000 add_sphere requests to a real server); writes bench/results/scene_scale.md
+# with the machine and the date.
 #   bench/run_scene_scale.sh [--ticks N]
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -20,5 +21,9 @@ out="bench/results/scene_scale.md"
   echo "20 cm of the box. Produced by bench/run_scene_scale.sh."
   echo
   build/bin/scene_scale "$@"
+  echo
+  echo "## Edits through the control channel of a real server (bench/scene_edit_scale.py)"
+  echo
+  .venv/bin/python bench/scene_edit_scale.py
 } >"$out"
 echo "wrote $out" >&2
