@@ -2,8 +2,8 @@
 
 #include <cmath>
 
+#include "server/embree/work_budget_callbacks.h"
 #include "server/geometry/closest_point_triangle.h"
-#include "server/geometry/work_meter.h"
 
 namespace hapticd::embree {
 namespace {
@@ -41,12 +41,7 @@ float EmbreeRadius(const EmbreeMesh& mesh, double distance) {
 
 // The exact closest point on one candidate; a better one shrinks Embree's radius.
 bool VisitCandidate(RTCPointQueryFunctionArguments* args) {
-  // past the tick's work budget (geometry::WorkMeter): shrink the query to its point
-  // (the answer is incomplete; the metered caller throws it away)
-  if (!geometry::WorkMeter::Charge(1)) {
-    args->query->radius = 0;
-    return true;
-  }
+  if (internal::ShrinkWhenOverBudget(args)) return true;
   auto& search = *static_cast<ClosestPointSearch*>(args->userPtr);
   const Triangle& triangle = search.mesh->primitive(args->primID);
   if (BoxDistanceSquared(search.p, triangle) > search.best_d2) return false;

@@ -1,10 +1,10 @@
 #include "server/embree/embree_signed_distance.h"
 
 #include "server/embree/embree_closest_point.h"
+#include "server/embree/work_budget_callbacks.h"
 #include "server/geometry/aabb.h"
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/exact_predicates.h"
-#include "server/geometry/work_meter.h"
 
 namespace hapticd::embree {
 namespace {
@@ -24,12 +24,7 @@ struct HolderSearch {
 
 // Tests one candidate exactly; the radius never changes.
 bool VisitHolderCandidate(RTCPointQueryFunctionArguments* args) {
-  // past the tick's work budget (geometry::WorkMeter): shrink the query to its point
-  // (the answer is incomplete; the metered caller throws it away)
-  if (!geometry::WorkMeter::Charge(1)) {
-    args->query->radius = 0;
-    return true;
-  }
+  if (internal::ShrinkWhenOverBudget(args)) return true;
   auto& search = *static_cast<HolderSearch*>(args->userPtr);
   // one holder is enough
   if (search.holder >= 0) return false;

@@ -3,8 +3,8 @@
 #include <cmath>
 
 #include "server/embree/segment_callbacks.h"
+#include "server/embree/work_budget_callbacks.h"
 #include "server/geometry/aabb.h"
-#include "server/geometry/work_meter.h"
 
 namespace hapticd::embree {
 namespace {
@@ -27,12 +27,7 @@ struct SphereSweepSearch {
 // one found first, as the native sweep does). The ball never shrinks: a shorter motion
 // still starts at a, which lies on its rim.
 bool SweepCandidate(RTCPointQueryFunctionArguments* args) {
-  // past the tick's work budget (geometry::WorkMeter): shrink the query to its point
-  // (the answer is incomplete; the metered caller throws it away)
-  if (!geometry::WorkMeter::Charge(1)) {
-    args->query->radius = 0;
-    return true;
-  }
+  if (internal::ShrinkWhenOverBudget(args)) return true;
   auto& search = *static_cast<SphereSweepSearch*>(args->userPtr);
   const geometry::Triangle& triangle = search.mesh->primitive(args->primID);
   if (!geometry::AabbsOverlap(search.reach, Aabb::OfTriangle(triangle))) return false;

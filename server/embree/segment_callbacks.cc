@@ -3,9 +3,9 @@
 #include <limits>
 
 #include "server/embree/embree_mesh.h"
+#include "server/embree/work_budget_callbacks.h"
 #include "server/geometry/aabb.h"
 #include "server/geometry/segment_triangle.h"
-#include "server/geometry/work_meter.h"
 
 namespace hapticd::embree::internal {
 namespace {
@@ -19,17 +19,6 @@ TriangleHit TestCandidate(const SegmentQuery& query, const geometry::Triangle& t
   const Aabb segment_box{query.p.cwiseMin(query.q), query.p.cwiseMax(query.q)};
   if (!geometry::AabbsOverlap(segment_box, Aabb::OfTriangle(triangle))) return {};
   return geometry::IntersectSegmentTriangleWatertight(query.p, query.q, triangle);
-}
-
-// Past the tick's work budget (geometry::WorkMeter): every lane's traversal ends here,
-// its answer incomplete (the metered caller throws it away).
-template <typename Ray>
-bool EndWhenOverBudget(Ray* rays, unsigned n, const int* valid) {
-  if (geometry::WorkMeter::Charge(1)) return false;
-  for (unsigned i = 0; i < n; ++i) {
-    if (valid[i] != 0) RTCRayN_tfar(rays, n, i) = -std::numeric_limits<float>::infinity();
-  }
-  return true;
 }
 
 SegmentQueryContext& ContextOf(RTCIntersectContext* context) {

@@ -93,7 +93,6 @@ class RenderSession {
   const SessionCounters& counters() const { return counters_; }
   // Work units the last tick spent (geometry::WorkMeter; past the budget if it overran).
   int64_t last_tick_work() const { return last_tick_work_; }
-  int64_t work_budget() const { return work_budget_; }
   // Net energy (J) the passivity observer has seen the rendered force put into the
   // device (positive: generated).
   double observed_energy() const;

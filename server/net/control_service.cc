@@ -432,13 +432,7 @@ v1::Reply ControlService::FindContacts(const v1::FindContacts& query) {
   v1::Reply reply;
   v1::ContactsResult* result = reply.mutable_contacts();
   // the objects near the sphere, in scene order
-  std::vector<int> near;
-  snapshot->ForEachObjectNear({c_W - Vector3::Constant(r), c_W + Vector3::Constant(r)}, [&](int i) {
-    near.push_back(i);
-    return true;
-  });
-  std::sort(near.begin(), near.end());
-  for (const int i : near) {
+  for (const int i : snapshot->ObjectsNear({c_W - Vector3::Constant(r), c_W + Vector3::Constant(r)})) {
     const scene::SceneObject& object = snapshot->object(i);
     // Each object the sphere touches: its nearest surface point, in W.
     const force::ShapeProbe probe = force::ProbeShape(object.shape, object.X_WB.ToBody(c_W), r);

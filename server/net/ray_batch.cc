@@ -1,6 +1,5 @@
 #include "server/net/ray_batch.h"
 
-#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -107,14 +106,8 @@ v1::RayHits CastRayBatch(const scene::SceneSnapshot& scene, const v1::RayCastBat
     reach.Extend(a_W[i]);
     reach.Extend(b_W[i]);
   }
-  std::vector<int> near;
-  scene.ForEachObjectNear(reach, [&](int index) {
-    near.push_back(index);
-    return true;
-  });
-  std::sort(near.begin(), near.end());
   std::vector<BatchHit> best(n);
-  for (const int index : near) {
+  for (const int index : scene.ObjectsNear(reach)) {
     const scene::SceneObject& object = scene.object(index);
     const auto* mesh = std::get_if<scene::MeshShape>(&object.shape);
     if (mesh != nullptr && mesh->embree) {

@@ -11,42 +11,34 @@ bool ObjectIndex::IsBounded(const geometry::Aabb& bounds) {
 }
 
 void ObjectIndex::Insert(int object, const geometry::Aabb& bounds) {
-  if (!IsBounded(bounds)) {
-    proxy_of_object_.push_back(-1);
-    unbounded_.push_back(object);
-    return;
-  }
-  const int proxy = tree_.Insert(bounds);
-  proxy_of_object_.push_back(proxy);
-  if (proxy >= static_cast<int>(object_of_proxy_.size())) object_of_proxy_.resize(proxy + 1, -1);
-  object_of_proxy_[proxy] = object;
+  proxy_of_object_.push_back(-1);
+  Attach(object, bounds);
 }
 
 void ObjectIndex::Move(int object, const geometry::Aabb& bounds, const geometry::Vector3& displacement) {
   const int proxy = proxy_of_object_[object];
-  const bool bounded = IsBounded(bounds);
-  if (proxy >= 0 && bounded) {
+  if (proxy >= 0 && IsBounded(bounds)) {
     tree_.Move(proxy, bounds, displacement);
     return;
   }
   // between bounded and unbounded (an update that changed the shape): out, then in
-  if (proxy >= 0) {
-    tree_.Remove(proxy);
-  } else {
-    std::erase(unbounded_, object);
-  }
-  if (!bounded) {
+  Detach(object);
+  Attach(object, bounds);
+}
+
+void ObjectIndex::Attach(int object, const geometry::Aabb& bounds) {
+  if (!IsBounded(bounds)) {
     proxy_of_object_[object] = -1;
     unbounded_.push_back(object);
     return;
   }
-  const int new_proxy = tree_.Insert(bounds);
-  proxy_of_object_[object] = new_proxy;
-  if (new_proxy >= static_cast<int>(object_of_proxy_.size())) object_of_proxy_.resize(new_proxy + 1, -1);
-  object_of_proxy_[new_proxy] = object;
+  const int proxy = tree_.Insert(bounds);
+  proxy_of_object_[object] = proxy;
+  if (proxy >= static_cast<int>(object_of_proxy_.size())) object_of_proxy_.resize(proxy + 1, -1);
+  object_of_proxy_[proxy] = object;
 }
 
-void ObjectIndex::Erase(int object) {
+void ObjectIndex::Detach(int object) {
   const int proxy = proxy_of_object_[object];
   if (proxy >= 0) {
     tree_.Remove(proxy);
@@ -54,6 +46,10 @@ void ObjectIndex::Erase(int object) {
   } else {
     std::erase(unbounded_, object);
   }
+}
+
+void ObjectIndex::Erase(int object) {
+  Detach(object);
   proxy_of_object_.erase(proxy_of_object_.begin() + object);
   // the objects after it move down one index
   for (int& o : object_of_proxy_) {

@@ -50,6 +50,10 @@ class ObjectIndex {
 
  private:
   static bool IsBounded(const geometry::Aabb& bounds);
+  // Puts object (whose proxy_of_object_ entry exists) in the tree or aside; Detach takes
+  // it out of either.
+  void Attach(int object, const geometry::Aabb& bounds);
+  void Detach(int object);
 
   geometry::DynamicAabbTree tree_;
   // object -> its proxy in tree_, or -1 when it is in unbounded_

@@ -267,7 +267,7 @@ SceneBuilder::SceneBuilder(const SceneSnapshot& base)
     : settings_(base.settings()), objects_(base.shared_objects()), index_(base.index()) {}
 
 const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
-  if (FindIndex(spec.name) >= 0) throw SceneError(ObjectField(spec.name) + " already exists");
+  if (FindObjectNamed(objects_, spec.name) >= 0) throw SceneError(ObjectField(spec.name) + " already exists");
   if (objects_.size() >= settings_.budgets.max_objects) {
     throw SceneError("the scene has " + std::to_string(objects_.size()) + " objects; the budget is " +
                      std::to_string(settings_.budgets.max_objects) + " (max_objects)");
@@ -375,15 +375,8 @@ std::shared_ptr<const SceneSnapshot> SceneBuilder::Build(uint64_t version) const
   return std::make_shared<const SceneSnapshot>(objects_, index_, settings_, version);
 }
 
-int SceneBuilder::FindIndex(std::string_view name) const {
-  for (int i = 0; i < num_objects(); ++i) {
-    if (objects_[i]->name == name) return i;
-  }
-  return -1;
-}
-
 int SceneBuilder::IndexOrThrow(std::string_view name) const {
-  const int index = FindIndex(name);
+  const int index = FindObjectNamed(objects_, name);
   if (index < 0) throw SceneError(ObjectField(name) + " does not exist");
   return index;
 }

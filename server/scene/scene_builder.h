@@ -83,8 +83,7 @@ class SceneBuilder {
   std::shared_ptr<const SceneSnapshot> Build(uint64_t version) const;
 
  private:
-  // The index of the object named name: -1 when there is none, or throwing SceneError.
-  int FindIndex(std::string_view name) const;
+  // The index of the object named name; SceneError when there is none.
   int IndexOrThrow(std::string_view name) const;
   // Object index, to be changed: copied first when a snapshot shares it.
   SceneObject& Writable(int index);

@@ -1,5 +1,6 @@
 #include "server/scene/scene_snapshot.h"
 
+#include <algorithm>
 #include <utility>
 
 namespace hapticd::scene {
@@ -30,12 +31,21 @@ SceneSnapshot::SceneSnapshot(SharedObjects objects, ObjectIndex index, SceneSett
 SceneSnapshot::SceneSnapshot(const std::vector<SceneObject>& objects, SceneSettings settings, uint64_t version)
     : SceneSnapshot(Share(objects), IndexOf(objects), settings, version) {}
 
-int SceneSnapshot::FindObject(std::string_view name) const {
-  // scenes hold tens of objects: a linear scan beats an index
-  for (int i = 0; i < num_objects(); ++i) {
-    if (objects_[i]->name == name) return i;
+int FindObjectNamed(const SharedObjects& objects, std::string_view name) {
+  for (int i = 0; i < static_cast<int>(objects.size()); ++i) {
+    if (objects[i]->name == name) return i;
   }
   return -1;
+}
+
+std::vector<int> SceneSnapshot::ObjectsNear(const geometry::Aabb& box) const {
+  std::vector<int> near;
+  ForEachObjectNear(box, [&](int i) {
+    near.push_back(i);
+    return true;
+  });
+  std::sort(near.begin(), near.end());
+  return near;
 }
 
 }  // namespace hapticd::scene

@@ -29,6 +29,10 @@ struct SceneSettings {
 // (SceneBuilder's copy-on-write relies on it).
 using SharedObjects = std::vector<std::shared_ptr<const SceneObject>>;
 
+// Index of the object named name in objects, or -1. A linear scan (issue 12: a name
+// index is still to come for scenes of thousands).
+int FindObjectNamed(const SharedObjects& objects, std::string_view name);
+
 class SceneSnapshot {
  public:
   // index: the broad phase over objects (the builder keeps one up to date).
@@ -43,7 +47,7 @@ class SceneSnapshot {
   int num_objects() const { return static_cast<int>(objects_.size()); }
   const SceneObject& object(int i) const { return *objects_[i]; }
   // Index of the object named name, or -1.
-  int FindObject(std::string_view name) const;
+  int FindObject(std::string_view name) const { return FindObjectNamed(objects_, name); }
   const ObjectIndex& index() const { return index_; }
   // The kinematic objects' indices, ascending.
   std::span<const int> kinematic_objects() const { return kinematic_; }
@@ -55,6 +59,8 @@ class SceneSnapshot {
   void ForEachObjectNear(const geometry::Aabb& box, Visit visit) const {
     index_.ForEachNear(box, visit);
   }
+  // The same objects as indices in scene order (allocates: for the control thread).
+  std::vector<int> ObjectsNear(const geometry::Aabb& box) const;
 
  private:
   SharedObjects objects_;

@@ -440,7 +440,7 @@ TEST(SceneBuilder, SnapshotsShareWhatAnEditDoesNotTouch) {
   EXPECT_EQ(after->object(3).X_WB.translation.x(), before->object(4).X_WB.translation.x() + 0.5);
   EXPECT_EQ(before->num_objects(), 5);
   EXPECT_EQ(before->object(3).name, "s3");
-  // an edit after a build copies again; one before any build does not
+  // an edit after a build copies again
   builder.SetMaterial("s0", soft);
   const SceneObject* copied = &builder.Build(3)->object(0);
   EXPECT_NE(copied, &after->object(0));
