@@ -8,7 +8,7 @@
 
 #include "server/embree/embree_closest_point.h"
 #include "server/embree/embree_segment_queries.h"
-#include "server/force/shape_queries.h"
+#include "server/query/shape_queries.h"
 #include "server/geometry/mesh_queries.h"
 
 namespace hapticd::bench {
@@ -87,10 +87,10 @@ ResultRow MeasureFirstHit(ResultRow row, const QueryInputs& in, const TimingOpti
 std::vector<ResultRow> MeasureShape(const scene::Shape& shape, const ResultRow& identity,
                                     const QueryInputs& in, const TimingOptions& timing) {
   auto distance = [&](const Vector3& p) {
-    return std::abs(force::ProbeShape(shape, p, kInfinity).signed_distance);
+    return std::abs(query::ProbeShape(shape, p, kInfinity).signed_distance);
   };
   auto first_hit = [&](const Vector3& p, const Vector3& q) {
-    const force::ShapeSweep sweep = force::SweepSphereShape(shape, p, q, 0);
+    const query::ShapeSweep sweep = query::SweepSphereShape(shape, p, q, 0);
     return sweep.hit ? sweep.t : -1.0;
   };
   return {MeasureClosest(identity, in, timing, distance), MeasureFirstHit(identity, in, timing, first_hit)};

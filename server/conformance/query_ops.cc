@@ -1,15 +1,13 @@
 #include "server/conformance/query_ops.h"
 
 #include <array>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
-#include "server/embree/embree_closest_point.h"
 #include "server/embree/embree_mesh.h"
-#include "server/embree/embree_segment_queries.h"
-#include "server/embree/embree_signed_distance.h"
 #include "server/geometry/aabb.h"
 #include "server/geometry/box_box.h"
 #include "server/geometry/bvh.h"
@@ -18,6 +16,7 @@
 #include "server/geometry/segment_triangle.h"
 #include "server/geometry/sphere_sphere.h"
 #include "server/geometry/triangle_triangle.h"
+#include "server/query/mesh_backends.h"
 
 namespace hapticd::conformance {
 namespace {
@@ -137,23 +136,17 @@ void ConvexConvex(const JsonAt& args, const QueryBackend&, ResultWriter& result)
 }
 
 // The case's mesh on the chosen backend: its BVH, and its Embree scene when asked for.
-struct CaseMesh {
-  std::shared_ptr<const g::MeshBvh> bvh;
-  std::unique_ptr<embree::EmbreeMesh> embree;
-};
-
-CaseMesh ReadCaseMesh(const JsonAt& at, const QueryBackend& backend) {
-  CaseMesh mesh;
+scene::MeshShape ReadCaseMesh(const JsonAt& at, const QueryBackend& backend) {
+  scene::MeshShape mesh;
   mesh.bvh = std::make_shared<const g::MeshBvh>(ReadMesh(at));
-  if (backend.embree) mesh.embree = std::make_unique<embree::EmbreeMesh>(backend.embree, mesh.bvh);
+  if (backend.embree) mesh.embree = std::make_shared<const embree::EmbreeMesh>(backend.embree, mesh.bvh);
   return mesh;
 }
 
 void SegmentMesh(const JsonAt& args, const QueryBackend& backend, ResultWriter& result) {
-  const CaseMesh mesh = ReadCaseMesh(args["mesh"], backend);
+  const scene::MeshShape mesh = ReadCaseMesh(args["mesh"], backend);
   const auto [p, q] = ReadSegment(args);
-  const g::SegmentMeshHit hit =
-      mesh.embree ? embree::FindFirstSegmentHit(*mesh.embree, p, q) : g::FindFirstSegmentHit(*mesh.bvh, p, q);
+  const g::SegmentMeshHit hit = query::BackendOf(mesh).first_segment_hit(mesh, p, q);
   result.Bool("hit", hit.hit);
   if (!hit.hit) return;
   result.Number("t", hit.t);
@@ -161,23 +154,22 @@ void SegmentMesh(const JsonAt& args, const QueryBackend& backend, ResultWriter& 
 }
 
 void ClosestPointMesh(const JsonAt& args, const QueryBackend& backend, ResultWriter& result) {
-  const CaseMesh mesh = ReadCaseMesh(args["mesh"], backend);
+  const scene::MeshShape mesh = ReadCaseMesh(args["mesh"], backend);
   const g::Vector3 point = ReadVector3(args["point"]);
-  const g::MeshClosestPoint closest = mesh.embree ? embree::FindClosestPointOnMesh(*mesh.embree, point)
-                                                  : g::FindClosestPointOnMesh(*mesh.bvh, point);
+  const g::MeshClosestPoint closest =
+      query::BackendOf(mesh).closest_point(mesh, point, std::numeric_limits<double>::infinity());
   result.Number("distance", closest.distance);
   result.Vector("point", closest.point);
 }
 
 void PointInsideMesh(const JsonAt& args, const QueryBackend& backend, ResultWriter& result) {
-  const CaseMesh mesh = ReadCaseMesh(args["mesh"], backend);
+  const scene::MeshShape mesh = ReadCaseMesh(args["mesh"], backend);
   if (!mesh.bvh->mesh().is_closed()) {
     throw CaseError("args.mesh is not closed: some edge is not shared by exactly two "
                     "consistently oriented triangles, so it has no inside");
   }
   const g::Vector3 point = ReadVector3(args["point"]);
-  result.Bool("inside", mesh.embree ? embree::IsPointInsideMesh(*mesh.embree, point)
-                                    : g::IsPointInsideMesh(*mesh.bvh, point));
+  result.Bool("inside", query::BackendOf(mesh).is_inside(mesh, point));
 }
 
 struct NamedOp {

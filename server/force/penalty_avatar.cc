@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "server/force/scene_queries.h"
+#include "server/query/scene_queries.h"
 
 namespace hapticd::force {
 
@@ -10,13 +10,13 @@ AvatarForce CalcPenaltyForce(const scene::SceneSnapshot& scene, const Vector3& p
                              const Vector3& v_WD, double radius, bool force_shading) {
   AvatarForce out;
   out.avatar_W = p_WD;
-  const SceneContact contact = FindDeepestContact(scene, p_WD, radius, 0);
+  const query::SceneContact contact = query::FindDeepestContact(scene, p_WD, radius, 0);
   if (contact.object < 0 || !(contact.depth > 0)) return out;
   const scene::SceneObject& object = scene.object(contact.object);
   const scene::Material& material = object.material;
   Vector3 n = contact.normal_W;
   if (force_shading && material.force_shading) {
-    n = CalcSceneShadingNormal(scene, contact.object, contact.triangle, contact.point_W, n);
+    n = query::CalcSceneShadingNormal(scene, contact.object, contact.triangle, contact.point_W, n);
   }
   const double normal_speed = (v_WD - object.CalcPointVelocity(contact.point_W)).dot(n);
   // a spring-damper that pushes, never pulls

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "server/force/scene_queries.h"
+#include "server/query/scene_queries.h"
 
 namespace hapticd::force {
 namespace {
@@ -60,7 +60,7 @@ AvatarForce ProxyAvatar::Step(const scene::SceneSnapshot& scene, const Vector3& 
   // shading normal
   if (force_shading_ && material.force_shading && free_move.num_planes == 1 && depth > 0) {
     const Vector3 shading =
-        CalcSceneShadingNormal(scene, plane.object, plane.triangle, plane.point_W, n);
+        query::CalcSceneShadingNormal(scene, plane.object, plane.triangle, plane.point_W, n);
     const double cosine = shading.dot(n);
     if (cosine > kMinShadingCosine) target = p_WD + (depth / cosine) * shading;
   }

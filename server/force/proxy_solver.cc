@@ -6,8 +6,7 @@
 
 #include <Eigen/Dense>
 
-#include "server/force/scene_queries.h"
-#include "server/geometry/work_meter.h"
+#include "server/query/scene_queries.h"
 
 namespace hapticd::force {
 namespace {
@@ -106,25 +105,13 @@ Vector3 CarryProxy(const scene::SceneSnapshot& scene, const Vector3& x, double r
   // first such object in the scene, among those near it
   const bool any_kinematic = !scene.kinematic_objects().empty();
   if (any_kinematic) {
-    const double reach = r + kRestingGap;
-    int carrier = -1;
-    Vector3 carrier_point_W = Vector3::Zero();
-    scene.ForEachObjectNear({x - Vector3::Constant(reach), x + Vector3::Constant(reach)}, [&](int i) {
-      if (!geometry::WorkMeter::Charge(1)) return false;
-      const scene::SceneObject& object = scene.object(i);
-      if (object.motion != scene::Motion::kKinematic || (carrier >= 0 && i > carrier)) return true;
-      const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(x), reach);
-      if (!probe.found || probe.signed_distance > reach) return true;
-      carrier = i;
-      carrier_point_W = object.X_WB.ToWorld(probe.point_B);
-      return true;
-    });
-    if (carrier >= 0) carried += dt * scene.object(carrier).CalcPointVelocity(carrier_point_W);
+    const query::SceneContact carrier = query::FindKinematicContact(scene, x, r + kRestingGap);
+    if (carrier.object >= 0) carried += dt * scene.object(carrier.object).CalcPointVelocity(carrier.point_W);
   }
   // an object that moved into the proxy (or appeared around it) pushes it out
   if (!any_kinematic && !scene_changed) return carried;
   for (int push = 0; push < kMaxPushes; ++push) {
-    const SceneContact inside = FindDeepestContact(scene, carried, r, 0);
+    const query::SceneContact inside = query::FindDeepestContact(scene, carried, r, 0);
     if (inside.object < 0 || inside.depth <= kSkin) break;
     carried += (inside.depth + kSkin) * inside.normal_W;
   }
@@ -141,7 +128,7 @@ ProxyMove MoveProxy(const scene::SceneSnapshot& scene, const Vector3& start, con
         ProjectOntoPlanes(goal, move.planes.data(), move.num_planes);
     const Vector3 motion = target - move.position;
     if (motion.norm() <= kArrived) return move;
-    const SceneSweep sweep = SweepSphereScene(scene, move.position, target, r);
+    const query::SceneSweep sweep = query::SweepSphereScene(scene, move.position, target, r);
     if (!sweep.hit) {
       move.position = target;
       return move;

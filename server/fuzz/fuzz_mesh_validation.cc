@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "server/force/scene_queries.h"
+#include "server/query/scene_queries.h"
 #include "server/fuzz/scene_checks.h"
 #include "server/scene/scene_builder.h"
 
@@ -79,7 +79,7 @@ void CheckQueries(const scene::SceneSnapshot& snapshot) {
   const double size = object.bounds_W.size().norm();
   for (const Vector3& p_W : {center, corner, Vector3(center + Vector3(0.01, 0.02, 0.03) * size)}) {
     if (!p_W.allFinite()) continue;
-    const force::SceneContact contact = force::FindDeepestContact(snapshot, p_W, 0, size);
+    const query::SceneContact contact = query::FindDeepestContact(snapshot, p_W, 0, size);
     if (contact.object < 0) continue;
     FUZZ_CHECK(contact.object == 0, "a contact with object %d of 1", contact.object);
     FUZZ_CHECK(std::isfinite(contact.depth) && contact.point_W.allFinite() &&
@@ -90,7 +90,7 @@ void CheckQueries(const scene::SceneSnapshot& snapshot) {
   const Vector3 outside = corner + Vector3::Constant(0.5 * size + 0.1);
   if (!outside.allFinite() || !center.allFinite()) return;
   for (const double r : {0.0, 0.01 * size}) {
-    const force::SceneSweep sweep = force::SweepSphereScene(snapshot, outside, center, r);
+    const query::SceneSweep sweep = query::SweepSphereScene(snapshot, outside, center, r);
     if (!sweep.hit) continue;
     FUZZ_CHECK(sweep.object == 0 && sweep.t >= 0 && sweep.t <= 1 && sweep.point_W.allFinite() &&
                    IsUnit(sweep.normal_W),

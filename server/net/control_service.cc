@@ -7,12 +7,11 @@
 
 #include <fmt/format.h>
 
-#include "server/force/scene_queries.h"
-#include "server/force/shape_queries.h"
 #include "server/net/log.h"
 #include "server/net/proto_convert.h"
 #include "server/net/ray_batch.h"
 #include "server/net/request_error.h"
+#include "server/query/scene_queries.h"
 
 namespace hapticd::net {
 namespace {
@@ -392,7 +391,7 @@ v1::Reply ControlService::RayCast(const v1::RayCast& ray) {
   const double length = RequirePositive(ray.max_distance(), "ray_cast.max_distance");
   const auto snapshot = publisher_.current();
   const Vector3 end = origin + direction.normalized() * length;
-  const force::SceneSweep sweep = force::SweepSphereScene(*snapshot, origin, end, 0);
+  const query::SceneSweep sweep = query::SweepSphereScene(*snapshot, origin, end, 0);
   v1::Reply reply;
   v1::RayHit* hit = reply.mutable_ray_hit();
   hit->set_hit(sweep.hit);
@@ -409,7 +408,7 @@ v1::Reply ControlService::ClosestPoint(const v1::ClosestPoint& query) {
   const Vector3 p_W = ReadVector(query.point(), "closest_point.point");
   const double max_distance = RequirePositive(query.max_distance(), "closest_point.max_distance");
   const auto snapshot = publisher_.current();
-  const force::SceneContact contact = force::FindDeepestContact(*snapshot, p_W, 0, max_distance);
+  const query::SceneContact contact = query::FindDeepestContact(*snapshot, p_W, 0, max_distance);
   v1::Reply reply;
   v1::ClosestPointResult* result = reply.mutable_closest_point();
   result->set_found(contact.object >= 0);
@@ -431,17 +430,12 @@ v1::Reply ControlService::FindContacts(const v1::FindContacts& query) {
   const auto snapshot = publisher_.current();
   v1::Reply reply;
   v1::ContactsResult* result = reply.mutable_contacts();
-  // the objects near the sphere, in scene order
-  for (const int i : snapshot->ObjectsNear({c_W - Vector3::Constant(r), c_W + Vector3::Constant(r)})) {
-    const scene::SceneObject& object = snapshot->object(i);
-    // Each object the sphere touches: its nearest surface point, in W.
-    const force::ShapeProbe probe = force::ProbeShape(object.shape, object.X_WB.ToBody(c_W), r);
-    if (!probe.found || probe.signed_distance > r) continue;
+  for (const query::SceneContact& found : query::FindObjectContacts(*snapshot, c_W, r)) {
     v1::Contact* contact = result->add_contacts();
-    contact->set_object(object.name);
-    WriteVector(object.X_WB.ToWorld(probe.point_B), contact->mutable_point());
-    WriteVector(object.X_WB.DirectionToWorld(probe.normal_B), contact->mutable_normal());
-    contact->set_depth(r - probe.signed_distance);
+    contact->set_object(snapshot->object(found.object).name);
+    WriteVector(found.point_W, contact->mutable_point());
+    WriteVector(found.normal_W, contact->mutable_normal());
+    contact->set_depth(found.depth);
   }
   return reply;
 }

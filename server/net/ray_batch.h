@@ -1,8 +1,7 @@
 #pragma once
-// The control channel's batch ray cast: many segments against a scene snapshot at once.
-// Meshes on the Embree backend trace all segments in packets (rtcIntersect4/8/16 with
-// exact confirmation, server/embree/embree_segment_queries.h); other objects answer
-// each segment with the exact point sweep. Off the real-time thread.
+// The control channel's batch ray cast: many segments against a scene snapshot at once,
+// checked here and answered by query::CastSegments (meshes on the Embree backend trace
+// them in packets). Off the real-time thread.
 #include "hapticd/v1/hapticd.pb.h"
 #include "server/scene/scene_snapshot.h"
 

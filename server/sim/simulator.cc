@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <stdexcept>
 
-#include "server/force/scene_queries.h"
+#include "server/query/scene_queries.h"
 #include "server/sim/channel.h"
 #include "server/sim/sim_device.h"
 
@@ -80,7 +80,7 @@ void Simulator::MoveKinematicObjects(double t, uint64_t version) {
 }
 
 double Simulator::CalcPenetration(const Vector3& c_W, double r) const {
-  const force::SceneContact contact = force::FindDeepestContact(*snapshot_, c_W, r, 0);
+  const query::SceneContact contact = query::FindDeepestContact(*snapshot_, c_W, r, 0);
   return contact.object >= 0 ? std::max(0.0, contact.depth) : 0.0;
 }
 

@@ -8,15 +8,15 @@
 
 #include "server/embree/embree_mesh.h"
 #include "server/force/render_session.h"
-#include "server/force/test/test_scenes.h"
+#include "server/scene/test/test_scenes.h"
 
 namespace hapticd::force {
 namespace {
 
-using testing::BuildScene;
-using testing::MakeMaterial;
-using testing::MakeObject;
-using testing::MeshOf;
+using scene::testing::BuildScene;
+using scene::testing::MakeMaterial;
+using scene::testing::MakeObject;
+using scene::testing::MeshOf;
 
 // An icosphere (r 0.05) and a torus (0.04, 0.012) side by side, on the given backend.
 std::shared_ptr<const scene::SceneSnapshot> MakeMeshScene(scene::RayBackend backend) {

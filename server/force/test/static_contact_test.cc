@@ -8,15 +8,15 @@
 #include <vector>
 
 #include "server/force/render_session.h"
-#include "server/force/test/test_scenes.h"
+#include "server/scene/test/test_scenes.h"
 
 namespace hapticd::force {
 namespace {
 
-using testing::BuildScene;
-using testing::MakeMaterial;
-using testing::MakeObject;
-using testing::MeshOf;
+using scene::testing::BuildScene;
+using scene::testing::MakeMaterial;
+using scene::testing::MakeObject;
+using scene::testing::MeshOf;
 
 constexpr double kStiffness = 2000;
 constexpr double kDepth = 0.002;

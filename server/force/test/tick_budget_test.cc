@@ -7,14 +7,14 @@
 #include <vector>
 
 #include "server/force/render_session.h"
-#include "server/force/test/test_scenes.h"
+#include "server/scene/test/test_scenes.h"
 
 namespace hapticd::force {
 namespace {
 
-using testing::BuildScene;
-using testing::MakeMaterial;
-using testing::MakeObject;
+using scene::testing::BuildScene;
+using scene::testing::MakeMaterial;
+using scene::testing::MakeObject;
 
 constexpr int kStackTriangles = 20000;
 constexpr int64_t kBudget = 2000;

@@ -1,6 +1,6 @@
 // What the control channel reports of meshes and rays: an object's info carries its
 // mesh's closure, rewinding and warnings (WriteObjectInfo), and a batch of rays obeys
-// the single ray cast's rule (shape_queries.h) on every representation, the Embree
+// the single ray cast's rule (query/shape_queries.h) on every representation, the Embree
 // packets included.
 
 #include <cmath>
@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-#include "server/force/scene_queries.h"
+#include "server/query/scene_queries.h"
 #include "server/geometry/mesh_generators.h"
 #include "server/net/proto_convert.h"
 #include "server/net/ray_batch.h"
@@ -143,8 +143,8 @@ TEST(RayCastBatch, EveryRepresentationFollowsTheSingleRaysRule) {
                                              << " along " << directions[i].transpose() << " at "
                                              << got.distance(i);
       // and each batch answer is the single ray's
-      const force::SceneSweep single =
-          force::SweepSphereScene(*scenes[s], origins[i], origins[i] + 2 * directions[i], 0);
+      const query::SceneSweep single =
+          query::SweepSphereScene(*scenes[s], origins[i], origins[i] + 2 * directions[i], 0);
       ASSERT_EQ(single.hit, got.hit(i)) << "scene " << s << " ray " << i;
       if (!got.hit(i)) continue;
       hits += s == 0;

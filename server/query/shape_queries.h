@@ -1,13 +1,16 @@
 #pragma once
 
-// What an avatar asks of one shape, in the shape's body frame B: where is the nearest
-// surface (and how deep is a point inside), and where does a moving sphere first touch
-// it. One function per question, dispatched on the shape type; the proxy and penalty
-// methods need nothing else.
+// What is asked of one shape, in the shape's body frame B: where is the nearest surface
+// (and how deep is a point inside), where does a moving sphere first touch it, which
+// pieces of its surface lie near a point. One function per question, dispatched through
+// one table row per representation (and, for meshes, per backend: mesh_backends.h).
 
+#include <span>
+
+#include "server/geometry/mesh_queries.h"
 #include "server/scene/shape.h"
 
-namespace hapticd::force {
+namespace hapticd::query {
 
 using geometry::Vector3;
 
@@ -51,9 +54,23 @@ struct ShapeSweep {
 ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const Vector3& b_B,
                             double r);
 
+// out[i] = SweepSphereShape(shape, a_B[i], b_B[i], 0) for the first min(sizes) segments
+// (a ray batch): a mesh's backend traces them together (Embree in packets).
+void SweepPointsShape(const scene::Shape& shape, std::span<const Vector3> a_B, std::span<const Vector3> b_B,
+                      std::span<ShapeSweep> out);
+
+// The pieces of the shape's surface within radius (finite, >= 0) of p_B: a primitive,
+// plane or hull is one piece (triangle -1, its nearest point and outward normal, depth =
+// radius - signed distance, so a point inside has depth > radius); a mesh's pieces are
+// its triangles (geometry::FindSphereMeshContacts: unsigned distances). Writes as many as
+// out holds (a mesh keeps its deepest) and returns how many there are. Non-finite input
+// finds nothing. Real-time safe.
+int FindShapeFeatures(const scene::Shape& shape, const Vector3& p_B, double radius,
+                      std::span<geometry::SphereMeshContact> out);
+
 // The normal to render at a contact: the interpolated vertex normal of a mesh triangle
 // at point_B (Phong-style force shading), or normal_B itself for every other shape.
 Vector3 CalcShadingNormal(const scene::Shape& shape, int triangle, const Vector3& point_B,
                           const Vector3& normal_B);
 
-}  // namespace hapticd::force
+}  // namespace hapticd::query

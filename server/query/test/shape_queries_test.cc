@@ -1,7 +1,7 @@
 // Per-shape avatar queries: exact probes, and sweeps against independent oracles (the
 // analytic ray-sphere root; the mesh sweep over the same surface triangulated).
 
-#include "server/force/shape_queries.h"
+#include "server/query/shape_queries.h"
 
 #include <gtest/gtest.h>
 
@@ -15,7 +15,7 @@
 #include "server/geometry/mesh_generators.h"
 #include "server/geometry/sphere_sweep.h"
 
-namespace hapticd::force {
+namespace hapticd::query {
 namespace {
 
 using geometry::MeshBvh;
@@ -271,4 +271,4 @@ TEST(ShadingNormal, InterpolatesVertexNormalsOnMeshesOnly) {
 }
 
 }  // namespace
-}  // namespace hapticd::force
+}  // namespace hapticd::query

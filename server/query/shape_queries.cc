@@ -1,18 +1,17 @@
-#include "server/force/shape_queries.h"
+#include "server/query/shape_queries.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/gjk.h"
-#include "server/embree/embree_closest_point.h"
-#include "server/embree/embree_sphere_sweep.h"
-#include "server/embree/embree_signed_distance.h"
-#include "server/geometry/mesh_queries.h"
-#include "server/geometry/sphere_sweep.h"
+#include "server/geometry/sphere_box.h"
+#include "server/geometry/sphere_sphere.h"
+#include "server/query/mesh_backends.h"
 
-namespace hapticd::force {
+namespace hapticd::query {
 namespace {
 
 using geometry::ConvexHull;
@@ -41,52 +40,37 @@ Vector3 UnitOr(const Vector3& v, const Vector3& fallback) {
   return length > 1e-300 ? Vector3(v / length) : fallback;
 }
 
-ShapeProbe ProbeSphere(const SphereShape& sphere, const Vector3& p) {
+// The primitives' probes are the geometry kernels' answers for a sphere of radius 0 at p
+// (their degenerate cases, a point at a sphere's centre or on a capsule's axis, are
+// defined in those headers).
+ShapeProbe ProbeFromKernel(double distance, const Vector3& point, const Vector3& normal) {
   ShapeProbe probe;
   probe.found = true;
-  // if p is the centre, every direction is nearest: pick +z
-  probe.normal_B = UnitOr(p, Vector3::UnitZ());
-  probe.point_B = sphere.radius * probe.normal_B;
-  probe.signed_distance = p.norm() - sphere.radius;
+  probe.signed_distance = distance;
+  probe.point_B = point;
+  probe.normal_B = normal;
   return probe;
+}
+
+ShapeProbe ProbeBall(const Vector3& center, double radius, const Vector3& p) {
+  const geometry::SphereSphereResult contact = geometry::CollideSpheres({center, radius}, {p, 0});
+  return ProbeFromKernel(contact.distance, contact.point_a, contact.normal);
+}
+
+ShapeProbe ProbeSphere(const SphereShape& sphere, const Vector3& p) {
+  return ProbeBall(Vector3::Zero(), sphere.radius, p);
 }
 
 ShapeProbe ProbeBox(const BoxShape& box, const Vector3& p) {
-  ShapeProbe probe;
-  probe.found = true;
-  const Vector3& h = box.half_extents;
-  const Vector3 clamped = p.cwiseMax(-h).cwiseMin(h);
-  if (clamped != p) {
-    // outside: the clamped point is the nearest
-    probe.point_B = clamped;
-    probe.signed_distance = (p - clamped).norm();
-    probe.normal_B = UnitOr(p - clamped, Vector3::UnitZ());
-    return probe;
-  }
-  // inside (or on the surface): the nearest face is the one with the least room
-  int axis = 0;
-  double least_room = kInfinity;
-  for (int k = 0; k < 3; ++k) {
-    const double room = h[k] - std::abs(p[k]);
-    if (room < least_room) least_room = room, axis = k;
-  }
-  const double side = p[axis] >= 0 ? 1.0 : -1.0;
-  probe.normal_B = side * Vector3::Unit(axis);
-  probe.point_B = p;
-  probe.point_B[axis] = side * h[axis];
-  probe.signed_distance = -least_room;
-  return probe;
+  const geometry::SphereBoxResult contact =
+      geometry::CollideSphereBox({p, 0}, {Vector3::Zero(), geometry::Matrix3::Identity(), box.half_extents});
+  return ProbeFromKernel(contact.distance, contact.point_box, contact.normal);
 }
 
+// The ball of the capsule's radius around the axis point nearest p.
 ShapeProbe ProbeCapsule(const CapsuleShape& capsule, const Vector3& p) {
-  ShapeProbe probe;
-  probe.found = true;
   const Vector3 axis_point(0, 0, std::clamp(p.z(), -capsule.half_length, capsule.half_length));
-  // if p is on the axis, any radial direction is nearest: pick +x
-  probe.normal_B = UnitOr(p - axis_point, Vector3::UnitX());
-  probe.point_B = axis_point + capsule.radius * probe.normal_B;
-  probe.signed_distance = (p - axis_point).norm() - capsule.radius;
-  return probe;
+  return ProbeBall(axis_point, capsule.radius, p);
 }
 
 ShapeProbe ProbePlane(const Vector3& p) {
@@ -131,12 +115,6 @@ ShapeProbe ProbeConvex(const ConvexHull& hull, const Vector3& p) {
   return probe;
 }
 
-// The mesh's closest point within max_distance, from its backend (the same answer).
-geometry::MeshClosestPoint FindClosestPoint(const MeshShape& shape, const Vector3& p, double max_distance) {
-  return shape.embree ? embree::FindClosestPointOnMesh(*shape.embree, p, max_distance)
-                      : geometry::FindClosestPointOnMesh(*shape.bvh, p, max_distance);
-}
-
 // A closed mesh: the closest surface point, then the side of p against the closest
 // feature's angle-weighted pseudo-normal (Baerentzen & Aanaes 2005). A point deeper
 // inside than max_distance is still found, by the inside test. An open mesh is a
@@ -145,12 +123,10 @@ ShapeProbe ProbeMesh(const MeshShape& shape, const Vector3& p, double max_distan
   ShapeProbe probe;
   const geometry::TriangleMesh& mesh = shape.bvh->mesh();
   const bool solid = mesh.is_closed();
-  geometry::MeshClosestPoint closest = FindClosestPoint(shape, p, max_distance);
+  geometry::MeshClosestPoint closest = BackendOf(shape).closest_point(shape, p, max_distance);
   if (!closest.found) {
     if (!solid || !mesh.bounds().Contains(p)) return probe;
-    const geometry::MeshSignedDistance inside = shape.embree
-                                                    ? embree::CalcSignedDistanceToMesh(*shape.embree, p)
-                                                    : geometry::CalcSignedDistanceToMesh(*shape.bvh, p);
+    const geometry::MeshSignedDistance inside = BackendOf(shape).signed_distance(shape, p);
     if (!inside.inside) return probe;
     closest = inside.closest;
   }
@@ -245,7 +221,7 @@ ShapeSweep SweepMesh(const MeshShape& shape, const Vector3& a, const Vector3& b,
   Vector3 end = b;
   geometry::SphereSweepHit bound;
   if (r > 0) {
-    const geometry::MeshClosestPoint nearest = FindClosestPoint(shape, a, r + (b - a).norm());
+    const geometry::MeshClosestPoint nearest = BackendOf(shape).closest_point(shape, a, r + (b - a).norm());
     if (nearest.found && nearest.distance <= r + kRestingGap) {
       const Vector3 pseudo_normal = bvh.mesh().FeatureNormal(nearest.triangle, nearest.feature);
       const Vector3 normal = UnitOr(a - nearest.point, pseudo_normal);
@@ -268,9 +244,7 @@ ShapeSweep SweepMesh(const MeshShape& shape, const Vector3& a, const Vector3& b,
   }
   geometry::SphereSweepHit hit;
   if (end != a) {
-    // through Embree's BVH when the mesh is on it (the same answer)
-    hit = shape.embree ? embree::SweepSphereMesh(*shape.embree, a, end, r)
-                       : geometry::SweepSphereMesh(bvh, a, end, r);
+    hit = BackendOf(shape).sweep_sphere(shape, a, end, r);
     // back to the parameter of the whole sweep a -> b
     if (hit.hit && bound.hit) hit.t *= bound.t;
   }
@@ -283,53 +257,153 @@ ShapeSweep SweepMesh(const MeshShape& shape, const Vector3& a, const Vector3& b,
   return sweep;
 }
 
-// A convex shape's first contact: in closed form for a sphere, by advancement otherwise.
-ShapeSweep SweepConvexShape(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
-  if (const auto* sphere = std::get_if<SphereShape>(&shape)) return SweepSphere(*sphere, a, b, r);
-  return SweepConvex(shape, a, b, r);
+// A point (r = 0) from inside a convex solid (deeper than the touching tolerance, which
+// counts as on the surface): where the segment leaves it, found as the first contact of
+// the reversed segment from an end that is not inside (the line meets a convex solid in
+// one interval), its normal turned back towards a. Otherwise Sweep's first contact.
+template <ShapeSweep (*Sweep)(const scene::Shape&, const Vector3&, const Vector3&, double)>
+ShapeSweep SweepSolid(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
+  if (r == 0 && ProbeShape(shape, a, kInfinity).signed_distance < -kSweepTolerance) {
+    const ShapeProbe end = ProbeShape(shape, b, kInfinity);
+    if (!end.found || end.signed_distance < -kSweepTolerance) return {};
+    ShapeSweep exit = Sweep(shape, b, a, 0);
+    if (!exit.hit) return {};
+    exit.t = 1 - exit.t;
+    exit.normal_B = -exit.normal_B;
+    return exit;
+  }
+  return Sweep(shape, a, b, r);
+}
+
+// A whole solid is one feature: its nearest point, when within radius.
+int FindSolidFeatures(const scene::Shape& shape, const Vector3& p, double radius,
+                      std::span<geometry::SphereMeshContact> out) {
+  const ShapeProbe probe = ProbeShape(shape, p, radius);
+  if (!probe.found || probe.signed_distance > radius) return 0;
+  if (!out.empty()) out[0] = {-1, probe.point_B, probe.normal_B, radius - probe.signed_distance, {}};
+  return 1;
+}
+
+// Each triangle within radius (distances unsigned: a triangle has no inside).
+int FindMeshFeatures(const scene::Shape& shape, const Vector3& p, double radius,
+                     std::span<geometry::SphereMeshContact> out) {
+  const MeshShape& mesh = std::get<MeshShape>(shape);
+  return BackendOf(mesh).sphere_contacts(mesh, {p, radius}, out).num_touching;
+}
+
+// The questions of this file for one representation. Every query dispatches through
+// kRepresentations, so a new representation is one row.
+struct RepresentationQueries {
+  scene::ShapeType type;
+  // the nearest surface point (max_distance: meshes look no farther)
+  ShapeProbe (*probe)(const scene::Shape& shape, const Vector3& p, double max_distance);
+  ShapeSweep (*sweep)(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r);
+  int (*features)(const scene::Shape& shape, const Vector3& p, double radius,
+                  std::span<geometry::SphereMeshContact> out);
+};
+
+template <class S, ShapeProbe (*Probe)(const S&, const Vector3&)>
+ShapeProbe ProbeAs(const scene::Shape& shape, const Vector3& p, double) {
+  return Probe(std::get<S>(shape), p);
+}
+
+ShapeProbe ProbeAnyPlane(const scene::Shape&, const Vector3& p, double) { return ProbePlane(p); }
+ShapeProbe ProbeAnyConvex(const scene::Shape& shape, const Vector3& p, double) {
+  return ProbeConvex(*std::get<ConvexShape>(shape).hull, p);
+}
+ShapeProbe ProbeAnyMesh(const scene::Shape& shape, const Vector3& p, double max_distance) {
+  return ProbeMesh(std::get<MeshShape>(shape), p, max_distance);
+}
+ShapeSweep SweepAnySphere(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
+  return SweepSphere(std::get<SphereShape>(shape), a, b, r);
+}
+ShapeSweep SweepAnyMesh(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
+  return SweepMesh(std::get<MeshShape>(shape), a, b, r);
+}
+
+using scene::ShapeType;
+constexpr std::array<RepresentationQueries, static_cast<int>(ShapeType::kCount)> kRepresentations = {{
+    {ShapeType::kSphere, ProbeAs<SphereShape, ProbeSphere>, SweepSolid<SweepAnySphere>, FindSolidFeatures},
+    {ShapeType::kBox, ProbeAs<BoxShape, ProbeBox>, SweepSolid<SweepConvex>, FindSolidFeatures},
+    {ShapeType::kCapsule, ProbeAs<CapsuleShape, ProbeCapsule>, SweepSolid<SweepConvex>, FindSolidFeatures},
+    {ShapeType::kPlane, ProbeAnyPlane, SweepSolid<SweepConvex>, FindSolidFeatures},
+    {ShapeType::kConvex, ProbeAnyConvex, SweepSolid<SweepConvex>, FindSolidFeatures},
+    {ShapeType::kMesh, ProbeAnyMesh, SweepAnyMesh, FindMeshFeatures},
+}};
+
+constexpr bool RowsInTypeOrder() {
+  for (int i = 0; i < static_cast<int>(ShapeType::kCount); ++i) {
+    if (kRepresentations[i].type != static_cast<ShapeType>(i)) return false;
+  }
+  return true;
+}
+static_assert(RowsInTypeOrder(), "one row per scene::ShapeType, in its order");
+
+const RepresentationQueries* RowOf(const scene::Shape& shape) {
+  const int type = static_cast<int>(scene::TypeOf(shape));
+  return type >= 0 && type < static_cast<int>(ShapeType::kCount) ? &kRepresentations[type] : nullptr;
 }
 
 }  // namespace
 
 ShapeProbe ProbeShape(const scene::Shape& shape, const Vector3& p_B, double max_distance) {
-  if (!p_B.allFinite() || std::isnan(max_distance)) return {};
-  ShapeProbe probe;
-  switch (scene::TypeOf(shape)) {
-    case scene::ShapeType::kSphere: probe = ProbeSphere(std::get<SphereShape>(shape), p_B); break;
-    case scene::ShapeType::kBox: probe = ProbeBox(std::get<BoxShape>(shape), p_B); break;
-    case scene::ShapeType::kCapsule: probe = ProbeCapsule(std::get<CapsuleShape>(shape), p_B); break;
-    case scene::ShapeType::kPlane: probe = ProbePlane(p_B); break;
-    case scene::ShapeType::kConvex: probe = ProbeConvex(*std::get<ConvexShape>(shape).hull, p_B); break;
-    case scene::ShapeType::kMesh:
-      return ProbeMesh(std::get<MeshShape>(shape), p_B, max_distance);
-    case scene::ShapeType::kCount: return {};
-  }
+  const RepresentationQueries* row = RowOf(shape);
+  if (row == nullptr || !p_B.allFinite() || std::isnan(max_distance)) return {};
+  ShapeProbe probe = row->probe(shape, p_B, max_distance);
   if (probe.signed_distance > max_distance) probe.found = false;
   return probe;
 }
 
 ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const Vector3& b_B,
                             double r) {
-  if (!a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || a_B == b_B) return {};
-  switch (scene::TypeOf(shape)) {
-    case scene::ShapeType::kMesh: return SweepMesh(std::get<MeshShape>(shape), a_B, b_B, r);
-    case scene::ShapeType::kCount: return {};
-    default: break;
+  const RepresentationQueries* row = RowOf(shape);
+  if (row == nullptr || !a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || a_B == b_B) return {};
+  return row->sweep(shape, a_B, b_B, r);
+}
+
+void SweepPointsShape(const scene::Shape& shape, std::span<const Vector3> a_B, std::span<const Vector3> b_B,
+                      std::span<ShapeSweep> out) {
+  const std::size_t n = std::min({a_B.size(), b_B.size(), out.size()});
+  const auto* mesh = std::get_if<MeshShape>(&shape);
+  if (mesh == nullptr) {
+    for (std::size_t i = 0; i < n; ++i) out[i] = SweepSphereShape(shape, a_B[i], b_B[i], 0);
+    return;
   }
-  // a point from inside a convex solid (deeper than the touching tolerance, which
-  // counts as on the surface): where the segment leaves it, found as the first contact
-  // of the reversed segment from an end that is not inside (the line meets a convex
-  // solid in one interval), its normal turned back towards a_B
-  if (r == 0 && ProbeShape(shape, a_B, kInfinity).signed_distance < -kSweepTolerance) {
-    const ShapeProbe end = ProbeShape(shape, b_B, kInfinity);
-    if (!end.found || end.signed_distance < -kSweepTolerance) return {};
-    ShapeSweep exit = SweepConvexShape(shape, b_B, a_B, 0);
-    if (!exit.hit) return {};
-    exit.t = 1 - exit.t;
-    exit.normal_B = -exit.normal_B;
-    return exit;
+  // the backend's batch (Embree's packets) finds each segment's first crossing; the
+  // point sweep decides the rest
+  std::array<geometry::SegmentMeshHit, 64> hits;
+  const geometry::TriangleMesh& triangles = mesh->bvh->mesh();
+  for (std::size_t first = 0; first < n; first += hits.size()) {
+    const std::size_t count = std::min(hits.size(), n - first);
+    BackendOf(*mesh).first_segment_hits(*mesh, a_B.subspan(first, count), b_B.subspan(first, count),
+                                        std::span(hits).first(count));
+    for (std::size_t k = 0; k < count; ++k) {
+      const std::size_t i = first + k;
+      const geometry::SegmentMeshHit& hit = hits[k];
+      // a segment touching the surface where it starts hits by the closed-set rule; a
+      // ray does only when it goes into the solid: the point sweep decides
+      if (!hit.hit || hit.t == 0) {
+        out[i] = hit.hit ? SweepSphereShape(shape, a_B[i], b_B[i], 0) : ShapeSweep{};
+        continue;
+      }
+      ShapeSweep& sweep = out[i];
+      sweep = {};
+      sweep.hit = true;
+      sweep.t = hit.t;
+      sweep.point_B = a_B[i] + hit.t * (b_B[i] - a_B[i]);
+      // the face normal, turned towards the segment's origin
+      sweep.normal_B = triangles.face_normal(hit.triangle);
+      if (sweep.normal_B.dot(a_B[i] - sweep.point_B) < 0) sweep.normal_B = -sweep.normal_B;
+      sweep.triangle = hit.triangle;
+    }
   }
-  return SweepConvexShape(shape, a_B, b_B, r);
+}
+
+int FindShapeFeatures(const scene::Shape& shape, const Vector3& p_B, double radius,
+                      std::span<geometry::SphereMeshContact> out) {
+  const RepresentationQueries* row = RowOf(shape);
+  if (row == nullptr || !p_B.allFinite() || !(radius >= 0) || !std::isfinite(radius)) return 0;
+  return row->features(shape, p_B, radius, out);
 }
 
 Vector3 CalcShadingNormal(const scene::Shape& shape, int triangle, const Vector3& point_B,
@@ -348,4 +422,4 @@ Vector3 CalcShadingNormal(const scene::Shape& shape, int triangle, const Vector3
   return shading.dot(normal_B) > 0 ? shading : normal_B;
 }
 
-}  // namespace hapticd::force
+}  // namespace hapticd::query

@@ -14,16 +14,16 @@
 
 #include <gtest/gtest.h>
 
-#include "server/force/scene_queries.h"
-#include "server/force/test/test_scenes.h"
+#include "server/query/scene_queries.h"
+#include "server/scene/test/test_scenes.h"
 
-namespace hapticd::force {
+namespace hapticd::query {
 namespace {
 
-using testing::BuildScene;
-using testing::MakeMaterial;
-using testing::MakeObject;
-using testing::MeshOf;
+using scene::testing::BuildScene;
+using scene::testing::MakeMaterial;
+using scene::testing::MakeObject;
+using scene::testing::MeshOf;
 
 const Vector3 kHalf(0.5, 0.75, 1);  // dyadic: the faces' coordinates are exact
 const Vector3 kCentre(0.25, -0.5, 2);
@@ -132,4 +132,4 @@ TEST(RayCastRule, EveryRepresentationAnswersRandomRaysAlike) {
 }
 
 }  // namespace
-}  // namespace hapticd::force
+}  // namespace hapticd::query

@@ -1,0 +1,182 @@
+#include "server/query/scene_queries.h"
+
+#include <algorithm>
+#include <cmath>
+#include <tuple>
+
+#include "server/geometry/work_meter.h"
+
+namespace hapticd::query {
+namespace {
+
+// Squared distance from p to a box (0 inside); infinite extents work.
+double DistanceSquaredToBox(const geometry::Aabb& box, const Vector3& p) {
+  const Vector3 outside = (box.min - p).cwiseMax(p - box.max).cwiseMax(0.0);
+  return outside.squaredNorm();
+}
+
+}  // namespace
+
+SceneContact FindDeepestContact(const scene::SceneSnapshot& scene, const Vector3& c_W, double r,
+                                double max_gap) {
+  SceneContact deepest;
+  if (!c_W.allFinite() || !(r >= 0) || !(max_gap >= 0)) return deepest;
+  const double reach = r + max_gap;
+  const geometry::Aabb near{c_W - Vector3::Constant(reach), c_W + Vector3::Constant(reach)};
+  scene.ForEachObjectNear(near, [&](int i) {
+    if (!geometry::WorkMeter::Charge(1)) return false;
+    const scene::SceneObject& object = scene.object(i);
+    // skip objects whose box is out of reach
+    if (DistanceSquaredToBox(object.bounds_W, c_W) > reach * reach) return true;
+    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(c_W), reach);
+    if (!probe.found) return true;
+    const double depth = r - probe.signed_distance;
+    if (depth < -max_gap) return true;
+    // the deepest; of equally deep ones, the first in the scene
+    if (deepest.object >= 0 && (depth < deepest.depth || (depth == deepest.depth && i > deepest.object))) {
+      return true;
+    }
+    deepest.object = i;
+    deepest.depth = depth;
+    deepest.point_W = object.X_WB.ToWorld(probe.point_B);
+    deepest.normal_W = object.X_WB.DirectionToWorld(probe.normal_B);
+    deepest.triangle = probe.triangle;
+    return true;
+  });
+  return deepest;
+}
+
+SceneContact FindKinematicContact(const scene::SceneSnapshot& scene, const Vector3& c_W, double reach) {
+  SceneContact carrier;
+  if (!c_W.allFinite() || !(reach >= 0)) return carrier;
+  scene.ForEachObjectNear({c_W - Vector3::Constant(reach), c_W + Vector3::Constant(reach)}, [&](int i) {
+    if (!geometry::WorkMeter::Charge(1)) return false;
+    const scene::SceneObject& object = scene.object(i);
+    if (object.motion != scene::Motion::kKinematic || (carrier.object >= 0 && i > carrier.object)) return true;
+    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(c_W), reach);
+    if (!probe.found || probe.signed_distance > reach) return true;
+    carrier = {i, reach - probe.signed_distance, object.X_WB.ToWorld(probe.point_B),
+               object.X_WB.DirectionToWorld(probe.normal_B), probe.triangle};
+    return true;
+  });
+  return carrier;
+}
+
+SceneSweep SweepSphereScene(const scene::SceneSnapshot& scene, const Vector3& a_W,
+                            const Vector3& b_W, double r) {
+  SceneSweep first;
+  if (!a_W.allFinite() || !b_W.allFinite() || !(r >= 0) || a_W == b_W) return first;
+  // the box swept by the sphere, to skip objects it cannot reach
+  geometry::Aabb swept{a_W.cwiseMin(b_W) - Vector3::Constant(r), a_W.cwiseMax(b_W) + Vector3::Constant(r)};
+  scene.ForEachObjectNear(swept, [&](int i) {
+    if (!geometry::WorkMeter::Charge(1)) return false;
+    const scene::SceneObject& object = scene.object(i);
+    const ShapeSweep sweep =
+        SweepSphereShape(object.shape, object.X_WB.ToBody(a_W), object.X_WB.ToBody(b_W), r);
+    // the first contact; of simultaneous ones, the first object in the scene
+    if (!sweep.hit || (first.hit && (sweep.t > first.t || (sweep.t == first.t && i > first.object)))) {
+      return true;
+    }
+    first.hit = true;
+    first.object = i;
+    first.t = sweep.t;
+    first.point_W = object.X_WB.ToWorld(sweep.point_B);
+    first.normal_W = object.X_WB.DirectionToWorld(sweep.normal_B);
+    first.triangle = sweep.triangle;
+    return true;
+  });
+  return first;
+}
+
+void CastSegments(const scene::SceneSnapshot& scene, std::span<const Vector3> a_W, std::span<const Vector3> b_W,
+                  std::span<SceneSweep> out) {
+  const std::size_t n = std::min({a_W.size(), b_W.size(), out.size()});
+  geometry::Aabb reach;
+  for (std::size_t i = 0; i < n; ++i) {
+    out[i] = {};
+    reach.Extend(a_W[i]);
+    reach.Extend(b_W[i]);
+  }
+  std::vector<Vector3> a_B(n), b_B(n);
+  std::vector<ShapeSweep> sweeps(n);
+  // scene order, so that of simultaneous hits the first object's stays
+  for (const int index : scene.ObjectsNear(reach)) {
+    const scene::SceneObject& object = scene.object(index);
+    for (std::size_t i = 0; i < n; ++i) {
+      a_B[i] = object.X_WB.ToBody(a_W[i]);
+      b_B[i] = object.X_WB.ToBody(b_W[i]);
+    }
+    SweepPointsShape(object.shape, a_B, b_B, sweeps);
+    for (std::size_t i = 0; i < n; ++i) {
+      const ShapeSweep& sweep = sweeps[i];
+      if (!sweep.hit || (out[i].hit && sweep.t >= out[i].t)) continue;
+      out[i] = {true, index, sweep.t, object.X_WB.ToWorld(sweep.point_B), object.X_WB.DirectionToWorld(sweep.normal_B),
+                sweep.triangle};
+    }
+  }
+}
+
+std::vector<SceneContact> FindObjectContacts(const scene::SceneSnapshot& scene, const Vector3& c_W, double r) {
+  std::vector<SceneContact> contacts;
+  if (!c_W.allFinite() || !(r >= 0)) return contacts;
+  for (const int i : scene.ObjectsNear({c_W - Vector3::Constant(r), c_W + Vector3::Constant(r)})) {
+    const scene::SceneObject& object = scene.object(i);
+    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(c_W), r);
+    if (!probe.found || probe.signed_distance > r) continue;
+    contacts.push_back({i, r - probe.signed_distance, object.X_WB.ToWorld(probe.point_B),
+                        object.X_WB.DirectionToWorld(probe.normal_B), probe.triangle});
+  }
+  return contacts;
+}
+
+FeatureSet::FeatureSet(int capacity) : features_(std::max(capacity, 0)), scratch_(std::max(capacity, 0)) {}
+
+void FindFeaturesWithin(const scene::SceneSnapshot& scene, const Vector3& c_W, double radius, FeatureSet& out) {
+  out.count_ = 0;
+  out.truncated_ = false;
+  if (!c_W.allFinite() || !(radius >= 0) || !std::isfinite(radius) || out.capacity() == 0) return;
+  // nearest first; of equally near ones, the first object and triangle (the heap's
+  // top is the one to drop first)
+  const auto nearer = [](const SceneFeature& x, const SceneFeature& y) {
+    return std::tie(x.distance, x.object, x.triangle) < std::tie(y.distance, y.object, y.triangle);
+  };
+  const auto begin = out.features_.begin();
+  const geometry::Aabb near{c_W - Vector3::Constant(radius), c_W + Vector3::Constant(radius)};
+  scene.ForEachObjectNear(near, [&](int i) {
+    if (!geometry::WorkMeter::Charge(1)) return false;
+    const scene::SceneObject& object = scene.object(i);
+    if (DistanceSquaredToBox(object.bounds_W, c_W) > radius * radius) return true;
+    const int found = FindShapeFeatures(object.shape, object.X_WB.ToBody(c_W), radius, out.scratch_);
+    const int kept = std::min(found, static_cast<int>(out.scratch_.size()));
+    if (found > kept) out.truncated_ = true;
+    for (int k = 0; k < kept; ++k) {
+      const geometry::SphereMeshContact& piece = out.scratch_[k];
+      const SceneFeature feature{i, piece.triangle, radius - piece.depth, object.X_WB.ToWorld(piece.point),
+                                 object.X_WB.DirectionToWorld(piece.normal)};
+      if (out.count_ < out.capacity()) {
+        out.features_[out.count_++] = feature;
+        std::push_heap(begin, begin + out.count_, nearer);
+        continue;
+      }
+      out.truncated_ = true;
+      if (!nearer(feature, out.features_.front())) continue;
+      std::pop_heap(begin, begin + out.count_, nearer);
+      out.features_[out.count_ - 1] = feature;
+      std::push_heap(begin, begin + out.count_, nearer);
+    }
+    return true;
+  });
+  std::sort(begin, begin + out.count_, [](const SceneFeature& x, const SceneFeature& y) {
+    return std::tie(x.object, x.triangle) < std::tie(y.object, y.triangle);
+  });
+}
+
+Vector3 CalcSceneShadingNormal(const scene::SceneSnapshot& scene, int object, int triangle,
+                               const Vector3& point_W, const Vector3& normal_W) {
+  const scene::SceneObject& touched = scene.object(object);
+  return touched.X_WB.DirectionToWorld(
+      CalcShadingNormal(touched.shape, triangle, touched.X_WB.ToBody(point_W),
+                        touched.X_WB.DirectionToBody(normal_W)));
+}
+
+}  // namespace hapticd::query
