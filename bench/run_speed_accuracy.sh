@@ -13,26 +13,35 @@
 # 2-core machine.
 #   bench/run_speed_accuracy.sh [--quick]    (--quick: three levels, fewer inputs; a smoke
 #                                             test, written to build/speed_accuracy_quick/)
+# HAPTICD_BUILD_DIR=dir (default build): build and run from another build directory,
+# building only the benchmark there (with HAPTICD_JOBS jobs, default 1), so that a shared
+# build/ is left alone.
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"
 
+build="${HAPTICD_BUILD_DIR:-build}"
 quick=()
-work=build/speed_accuracy
+work="$build/speed_accuracy"
 results=bench/results
 case "${1:-}" in
   "") ;;
-  --quick) quick=(--quick); work=build/speed_accuracy_quick; results="$work/results" ;;
+  --quick) quick=(--quick); work="$build/speed_accuracy_quick"; results="$work/results" ;;
   *) echo "usage: bench/run_speed_accuracy.sh [--quick]" >&2; exit 2 ;;
 esac
 
 bash deploy/install.sh
-bash deploy/build.sh normal >/dev/null
+if [[ "$build" == build ]]; then
+  bash deploy/build.sh normal >/dev/null
+else
+  cmake -S "$repo" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+  ninja -C "$build" -j "${HAPTICD_JOBS:-1}" bin/speed_accuracy >/dev/null
+fi
 
 load_before="$(cut -d' ' -f1-3 /proc/loadavg)"
 started="$(date +%s)"
-echo "run_speed_accuracy: hapticd (build/bin/speed_accuracy)" >&2
-build/bin/speed_accuracy --out "$work" "${quick[@]}" >"$work.log" 2>&1 || { tail -20 "$work.log" >&2; exit 1; }
+echo "run_speed_accuracy: hapticd ($build/bin/speed_accuracy)" >&2
+"$build/bin/speed_accuracy" --out "$work" "${quick[@]}" >"$work.log" 2>&1 || { tail -20 "$work.log" >&2; exit 1; }
 echo "run_speed_accuracy: peers (coal, python-fcl, embreex)" >&2
 python3 bench/speed_accuracy_peers.py "$work" 2>>"$work.log" || { tail -20 "$work.log" >&2; exit 1; }
 elapsed=$(($(date +%s) - started))

@@ -1,6 +1,6 @@
 // Nanoseconds per query for the triangle primitives: segment/ray-triangle (Möller-
-// Trumbore and the exact watertight test, hits and misses apart), closest point on a
-// triangle, triangle-triangle, sphere-triangle and capsule-triangle. Inputs are
+// Trumbore and the exact watertight test, filtered and unfiltered, hits and misses
+// apart), closest point on a triangle, triangle-triangle, sphere-triangle and capsule-triangle. Inputs are
 // generated once per benchmark with a fixed seed, outside the timing loop, and the
 // loop cycles through 4096 of them so no single case sits in the branch predictor.
 
@@ -69,10 +69,19 @@ void BM_SegmentWatertightHit(benchmark::State& s) {
 void BM_SegmentWatertightMiss(benchmark::State& s) {
   RunSegments<IntersectSegmentTriangleWatertight>(s, false);
 }
+// the same decisions from the exact predicates alone (no shared filter)
+void BM_SegmentWatertightUnfilteredHit(benchmark::State& s) {
+  RunSegments<IntersectSegmentTriangleWatertightUnfiltered>(s, true);
+}
+void BM_SegmentWatertightUnfilteredMiss(benchmark::State& s) {
+  RunSegments<IntersectSegmentTriangleWatertightUnfiltered>(s, false);
+}
 BENCHMARK(BM_SegmentMollerTrumboreHit);
 BENCHMARK(BM_SegmentMollerTrumboreMiss);
 BENCHMARK(BM_SegmentWatertightHit);
 BENCHMARK(BM_SegmentWatertightMiss);
+BENCHMARK(BM_SegmentWatertightUnfilteredHit);
+BENCHMARK(BM_SegmentWatertightUnfilteredMiss);
 
 // Rays: the segments' directions, scaled, about half of them hitting.
 template <TriangleHit (*Query)(const Vector3&, const Vector3&, const Triangle&)>

@@ -273,11 +273,9 @@ SegmentMeshHit FindFirstSegmentHit(const MeshBvh& bvh, const Vector3& p, const V
   SegmentMeshHit best;
   // non-finite input, or the precondition p != q broken: a miss
   if (!p.allFinite() || !q.allFinite() || p == q) return best;
-  const Aabb segment_box{p.cwiseMin(q), p.cwiseMax(q)};
+  // the leaves' boxes are the triangles' own (mostly one a leaf), so each is tested at once
   TraverseSegment(bvh, p, q, [&](int first, int count) {
     for (int i = first; i < first + count; ++i) {
-      // boxes apart (exact comparisons): no contact
-      if (!AabbsOverlap(segment_box, Aabb::OfTriangle(bvh.primitive(i)))) continue;
       const TriangleHit h = IntersectSegmentTriangleWatertight(p, q, bvh.primitive(i));
       if (h.hit && (!best.hit || h.t < best.t)) {
         best = {true, h.t, bvh.primitive_triangle(i), h.u, h.v};
@@ -291,10 +289,8 @@ SegmentMeshHit FindFirstSegmentHit(const MeshBvh& bvh, const Vector3& p, const V
 bool SegmentHitsMesh(const MeshBvh& bvh, const Vector3& p, const Vector3& q) {
   bool hit = false;
   if (!p.allFinite() || !q.allFinite() || p == q) return hit;
-  const Aabb segment_box{p.cwiseMin(q), p.cwiseMax(q)};
   TraverseSegment(bvh, p, q, [&](int first, int count) {
     for (int i = first; i < first + count && !hit; ++i) {
-      if (!AabbsOverlap(segment_box, Aabb::OfTriangle(bvh.primitive(i)))) continue;
       hit = IntersectSegmentTriangleWatertight(p, q, bvh.primitive(i)).hit;
     }
     return hit ? -1.0 : 1.0;

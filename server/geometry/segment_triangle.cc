@@ -85,32 +85,11 @@ bool AllFinite(const Vector3& a, const Vector3& b, const Triangle& tri) {
          tri.v2.allFinite();
 }
 
-}  // namespace
-
-TriangleHit IntersectSegmentTriangle(const Vector3& p, const Vector3& q, const Triangle& tri) {
-  return MollerTrumbore(p, q - p, tri, 1.0);
-}
-
-TriangleHit IntersectRayTriangle(const Vector3& origin, const Vector3& dir, const Triangle& tri) {
-  return MollerTrumbore(origin, dir, tri, std::numeric_limits<double>::infinity());
-}
-
-TriangleHit IntersectSegmentTriangleWatertight(const Vector3& p, const Vector3& q,
-                                               const Triangle& tri) {
-  // Non-finite input would make every sign unreliable: a miss, never a NaN hit.
-  if (!AllFinite(p, q, tri)) return {};
-  // p and q on the same side of the plane, or both in it: a miss.
-  const int side_p = Orient3d(tri.v0, tri.v1, tri.v2, p);
-  const int side_q = Orient3d(tri.v0, tri.v1, tri.v2, q);
-  if (side_p == side_q) return {};
-  // The line pq passes all three directed edges the same way iff it meets the triangle.
-  // Orient3d(p, q, a, b) = -Orient3d(p, q, b, a) exactly: a shared edge cannot let the
-  // line slip between its two triangles.
-  const int sign_01 = Orient3d(p, q, tri.v0, tri.v1);
-  const int sign_12 = Orient3d(p, q, tri.v1, tri.v2);
-  const int sign_20 = Orient3d(p, q, tri.v2, tri.v0);
-  if (!SignsAgree(sign_01, sign_12, sign_20)) return {};
-
+// t, u and v of a hit, once the exact signs (sides of p and q, line against the edges)
+// say that p -> q meets the triangle. Shared by the filtered and the exact decisions,
+// so that both report the same numbers.
+TriangleHit CompleteSegmentHit(const Vector3& p, const Vector3& q, const Triangle& tri,
+                               int side_p, int side_q, int sign_01, int sign_12, int sign_20) {
   TriangleHit hit{.hit = true};
   // t from the signed distances to the plane; an endpoint on the plane is exact.
   const Vector3 n = (tri.v1 - tri.v0).cross(tri.v2 - tri.v0);
@@ -131,6 +110,128 @@ TriangleHit IntersectSegmentTriangleWatertight(const Vector3& p, const Vector3& 
   }
   SetBarycentrics(p, q - p, tri, sign_01, sign_12, sign_20, hit);
   return hit;
+}
+
+// Shewchuk's first-stage bound for a 3x3 determinant of differences of the inputs,
+// relative to its permanent (the same bound as Orient3d's filter).
+constexpr double kHalfUlp = std::numeric_limits<double>::epsilon() / 2;
+constexpr double kDeterminantErrorBound = (7.0 + 56.0 * kHalfUlp) * kHalfUlp;
+// Added to every bound: products that underflow lose their relative accuracy, and their
+// absolute error, scaled by coordinates up to 1e100, stays below this.
+constexpr double kUnderflowGuard = 1e-200;
+
+// The five signs the watertight segment test decides on, when floating point proves
+// them all (answer kHit, signs as Orient3d gives them) or proves a miss whatever the
+// undecided ones are (kMiss); kUndecided otherwise, and on non-finite input that does
+// not already prove a miss (the exact test then answers).
+struct FilteredSigns {
+  enum Answer { kMiss, kHit, kUndecided } answer = kUndecided;
+  int side_p = 0, side_q = 0, sign_01 = 0, sign_12 = 0, sign_20 = 0;
+};
+
+// With a = v0 - p, b = v1 - p, c = v2 - p and d = q - p (rounded):
+//   Orient3d(p, q, v0, v1) = sign d . (a x b), and so on around the edges;
+//   Orient3d(v0, v1, v2, p) = -sign a . (b x c)  (the volume det[a, b, c]);
+//   Orient3d(v0, v1, v2, q) = -sign det[a - d, b - d, c - d]
+//                           = -sign (det[a, b, c] - d.(a x b) - d.(b x c) - d.(c x a)),
+// the last exactly by multilinearity, so q's side costs three subtractions, and its
+// bound the sum of the four bounds plus the rounding of those subtractions. Each of the
+// first four is a determinant of rounded differences of the inputs, evaluated as
+// Orient3d's filter evaluates one, with the same bound on its error.
+FilteredSigns FilterSegmentTriangle(const Vector3& p, const Vector3& q, const Triangle& tri) {
+  const double dx = q.x() - p.x(), dy = q.y() - p.y(), dz = q.z() - p.z();
+  const double ax = tri.v0.x() - p.x(), ay = tri.v0.y() - p.y(), az = tri.v0.z() - p.z();
+  const double bx = tri.v1.x() - p.x(), by = tri.v1.y() - p.y(), bz = tri.v1.z() - p.z();
+  const double cx = tri.v2.x() - p.x(), cy = tri.v2.y() - p.y(), cz = tri.v2.z() - p.z();
+  // cross products, and the permanents (sums of the products' magnitudes) of their parts
+  const auto cross = [](double ux, double uy, double uz, double vx, double vy, double vz,
+                        double out[3], double permanent[3]) {
+    const double x1 = uy * vz, x2 = uz * vy;
+    const double y1 = uz * vx, y2 = ux * vz;
+    const double z1 = ux * vy, z2 = uy * vx;
+    out[0] = x1 - x2;
+    out[1] = y1 - y2;
+    out[2] = z1 - z2;
+    permanent[0] = std::abs(x1) + std::abs(x2);
+    permanent[1] = std::abs(y1) + std::abs(y2);
+    permanent[2] = std::abs(z1) + std::abs(z2);
+  };
+  double ab[3], bc[3], ca[3], ab_perm[3], bc_perm[3], ca_perm[3];
+  cross(ax, ay, az, bx, by, bz, ab, ab_perm);
+  cross(bx, by, bz, cx, cy, cz, bc, bc_perm);
+  cross(cx, cy, cz, ax, ay, az, ca, ca_perm);
+  const auto dot = [](double wx, double wy, double wz, const double v[3]) {
+    return wx * v[0] + wy * v[1] + wz * v[2];
+  };
+  const auto bound = [](double wx, double wy, double wz, const double permanent[3]) {
+    return kDeterminantErrorBound * (std::abs(wx) * permanent[0] + std::abs(wy) * permanent[1] +
+                                     std::abs(wz) * permanent[2]) +
+           kUnderflowGuard;
+  };
+  const double s01 = dot(dx, dy, dz, ab), e01 = bound(dx, dy, dz, ab_perm);
+  const double s12 = dot(dx, dy, dz, bc), e12 = bound(dx, dy, dz, bc_perm);
+  const double s20 = dot(dx, dy, dz, ca), e20 = bound(dx, dy, dz, ca_perm);
+  const double vp = dot(ax, ay, az, bc), ep = bound(ax, ay, az, bc_perm);
+  // the four errors, summed with room for that sum's rounding, and the three subtractions'
+  const double vq = ((vp - s01) - s12) - s20;
+  const double eq = (ep + e01 + e12 + e20) * (1 + 8 * kHalfUlp) +
+                    4 * kHalfUlp * (std::abs(vp) + std::abs(s01) + std::abs(s12) + std::abs(s20));
+
+  FilteredSigns f;
+  // a miss whatever the rest: the line passes two edges opposite ways, or p and q lie
+  // strictly on one side (NaN compares false and proves nothing)
+  const bool any_positive = s01 > e01 || s12 > e12 || s20 > e20;
+  const bool any_negative = s01 < -e01 || s12 < -e12 || s20 < -e20;
+  const bool one_side = (vp > ep && vq > eq) || (vp < -ep && vq < -eq);
+  if ((any_positive && any_negative) || one_side) {
+    f.answer = FilteredSigns::kMiss;
+    return f;
+  }
+  const bool all_known = std::abs(s01) > e01 && std::abs(s12) > e12 && std::abs(s20) > e20 &&
+                         std::abs(vp) > ep && std::abs(vq) > eq;
+  if (!all_known) return f;
+  // every sign proven, the edges agree and p, q lie strictly on opposite sides: a hit
+  f.answer = FilteredSigns::kHit;
+  f.side_p = vp > 0 ? -1 : 1;
+  f.side_q = -f.side_p;
+  f.sign_01 = f.sign_12 = f.sign_20 = any_positive ? 1 : -1;
+  return f;
+}
+
+}  // namespace
+
+TriangleHit IntersectSegmentTriangle(const Vector3& p, const Vector3& q, const Triangle& tri) {
+  return MollerTrumbore(p, q - p, tri, 1.0);
+}
+
+TriangleHit IntersectRayTriangle(const Vector3& origin, const Vector3& dir, const Triangle& tri) {
+  return MollerTrumbore(origin, dir, tri, std::numeric_limits<double>::infinity());
+}
+
+TriangleHit IntersectSegmentTriangleWatertight(const Vector3& p, const Vector3& q,
+                                               const Triangle& tri) {
+  const FilteredSigns f = FilterSegmentTriangle(p, q, tri);
+  if (f.answer == FilteredSigns::kMiss) return {};
+  if (f.answer == FilteredSigns::kUndecided) return IntersectSegmentTriangleWatertightUnfiltered(p, q, tri);
+  return CompleteSegmentHit(p, q, tri, f.side_p, f.side_q, f.sign_01, f.sign_12, f.sign_20);
+}
+
+TriangleHit IntersectSegmentTriangleWatertightUnfiltered(const Vector3& p, const Vector3& q,
+                                                         const Triangle& tri) {
+  // Non-finite input would make every sign unreliable: a miss, never a NaN hit.
+  if (!AllFinite(p, q, tri)) return {};
+  // p and q on the same side of the plane, or both in it: a miss.
+  const int side_p = Orient3d(tri.v0, tri.v1, tri.v2, p);
+  const int side_q = Orient3d(tri.v0, tri.v1, tri.v2, q);
+  if (side_p == side_q) return {};
+  // The line pq passes all three directed edges the same way iff it meets the triangle.
+  // Orient3d(p, q, a, b) = -Orient3d(p, q, b, a) exactly: a shared edge cannot let the
+  // line slip between its two triangles.
+  const int sign_01 = Orient3d(p, q, tri.v0, tri.v1);
+  const int sign_12 = Orient3d(p, q, tri.v1, tri.v2);
+  const int sign_20 = Orient3d(p, q, tri.v2, tri.v0);
+  if (!SignsAgree(sign_01, sign_12, sign_20)) return {};
+  return CompleteSegmentHit(p, q, tri, side_p, side_q, sign_01, sign_12, sign_20);
 }
 
 TriangleHit IntersectRayTriangleWatertight(const Vector3& origin, const Vector3& dir,

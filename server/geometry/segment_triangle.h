@@ -32,9 +32,17 @@ struct TriangleHit {
 TriangleHit IntersectSegmentTriangle(const Vector3& p, const Vector3& q, const Triangle& tri);
 TriangleHit IntersectRayTriangle(const Vector3& origin, const Vector3& dir, const Triangle& tri);
 
-// The watertight variant: exact hit decision, t/u/v computed in double.
+// The watertight variant: exact hit decision, t/u/v computed in double. The segment
+// test decides its five signs together in floating point with a proven error bound and
+// asks the exact predicates only for the signs that bound leaves open (a segment
+// within rounding of an edge, a vertex or the plane), so the answer is always that of
+// the unfiltered test below.
 TriangleHit IntersectSegmentTriangleWatertight(const Vector3& p, const Vector3& q,
                                                const Triangle& tri);
+// The same test with every sign from the exact predicates (Orient3d): the oracle the
+// filtered test is checked against.
+TriangleHit IntersectSegmentTriangleWatertightUnfiltered(const Vector3& p, const Vector3& q,
+                                                         const Triangle& tri);
 TriangleHit IntersectRayTriangleWatertight(const Vector3& origin, const Vector3& dir,
                                            const Triangle& tri);
 

@@ -66,12 +66,13 @@ Vector3 RandomPointAround(const TriangleMesh& mesh, std::mt19937_64& rng) {
 }
 
 // ---------------------------------------------------------------------------------
-// Brute-force oracles: every non-degenerate triangle, no BVH.
+// Brute-force oracles: every non-degenerate triangle, no BVH; segments by the
+// unfiltered exact test.
 
 SegmentMeshHit BruteFirstHit(const TriangleMesh& mesh, const Vector3& p, const Vector3& q) {
   SegmentMeshHit best;
   for (int t : mesh.nondegenerate_triangles()) {
-    const TriangleHit h = IntersectSegmentTriangleWatertight(p, q, mesh.triangle(t));
+    const TriangleHit h = IntersectSegmentTriangleWatertightUnfiltered(p, q, mesh.triangle(t));
     if (h.hit && (!best.hit || h.t < best.t)) best = {true, h.t, t, h.u, h.v};
   }
   return best;
@@ -126,10 +127,11 @@ void ExpectSameFirstHit(const MeshBvh& bvh, const Vector3& p, const Vector3& q,
   // the same smallest t; the triangle may be another one holding that point
   EXPECT_EQ(got.t, want.t) << what;
   const TriangleHit again =
-      IntersectSegmentTriangleWatertight(p, q, bvh.mesh().triangle(got.triangle));
+      IntersectSegmentTriangleWatertightUnfiltered(p, q, bvh.mesh().triangle(got.triangle));
   EXPECT_TRUE(again.hit) << what;
   EXPECT_EQ(again.t, got.t) << what;
   EXPECT_EQ(again.u, got.u) << what;
+  EXPECT_EQ(again.v, got.v) << what;
 }
 
 TEST(MeshQueries, FirstHitMatchesBruteForce) {

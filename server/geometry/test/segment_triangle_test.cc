@@ -402,5 +402,121 @@ TEST(SegmentTriangleWatertight, SegmentsThroughAGenericHinge) {
               cracks, kAims, both);
 }
 
+// ---------------------------------------------------------------------------------
+// The filter: IntersectSegmentTriangleWatertight decides in floating point where its
+// error bound allows and must give exactly the unfiltered test's answer everywhere,
+// above all where the bound cannot decide: segments aimed exactly through vertices and
+// edges (with coordinates whose products round), lying in the plane or ending on it,
+// one rounding step beside an edge, and slivers, needles and tiny triangles.
+
+void ExpectSameAsUnfiltered(const Vector3& p, const Vector3& q, const Triangle& t, int& hits,
+                            const char* what, int n) {
+  const TriangleHit got = IntersectSegmentTriangleWatertight(p, q, t);
+  const TriangleHit want = IntersectSegmentTriangleWatertightUnfiltered(p, q, t);
+  ASSERT_EQ(got.hit, want.hit) << what << " case " << n;
+  hits += want.hit;
+  if (!want.hit) return;
+  // the same numbers, bit for bit
+  EXPECT_EQ(got.t, want.t) << what << " case " << n;
+  EXPECT_EQ(got.u, want.u) << what << " case " << n;
+  EXPECT_EQ(got.v, want.v) << what << " case " << n;
+}
+
+TEST(SegmentTriangleWatertight, FilteredEqualsUnfiltered) {
+  std::mt19937_64 rng(91);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::uniform_int_distribution<int64_t> bits30(-(int64_t{1} << 29), int64_t{1} << 29);
+  std::uniform_int_distribution<int64_t> bits50(-(int64_t{1} << 49), int64_t{1} << 49);
+  const auto point = [&] { return Vector3(u(rng), u(rng), u(rng)); };
+  const auto dyadic30 = [&] {
+    return Vector3(std::ldexp(bits30(rng), -29), std::ldexp(bits30(rng), -29),
+                   std::ldexp(bits30(rng), -29));
+  };
+  const auto offset50 = [&] {
+    return Vector3(std::ldexp(bits50(rng), -50), std::ldexp(bits50(rng), -50),
+                   std::ldexp(bits50(rng), -50));
+  };
+  const auto next_after = [](const Vector3& x, int axis, double towards) {
+    Vector3 y = x;
+    y[axis] = std::nextafter(y[axis], towards);
+    return y;
+  };
+  const int kCases = 20000;
+  int generic = 0, vertex = 0, edge = 0, beside = 0, in_plane = 0, on_plane = 0, slivers = 0;
+  for (int n = 0; n < kCases; ++n) {
+    // generic segments at scales 1e-6 .. 1e6, about a centre far from the origin
+    const double scale = std::pow(10.0, static_cast<int>(rng() % 13) - 6);
+    const Vector3 centre = 100 * scale * point();
+    const Triangle t{centre + scale * point(), centre + scale * point(), centre + scale * point()};
+    ExpectSameAsUnfiltered(centre + scale * point(), centre + scale * point(), t, generic, "generic", n);
+
+    // through a vertex, and through a point of an edge (30-bit corners, 50-bit offsets:
+    // the edge functions are exactly zero, their rounded values are not)
+    const Vector3 a = dyadic30(), b = dyadic30();
+    const Triangle hinge{a, b, point()};
+    const Vector3 delta = offset50();
+    ExpectSameAsUnfiltered(a + delta, a - delta, hinge, vertex, "vertex", n);
+    const Vector3 x = a + (static_cast<double>(1 + rng() % 15) / 16) * (b - a);
+    ExpectSameAsUnfiltered(x + delta, x - delta, hinge, edge, "edge", n);
+    ExpectSameAsUnfiltered(x - delta, x + delta, {b, a, point()}, edge, "edge", n);
+    // one rounding step beside the edge point, either way
+    ExpectSameAsUnfiltered(next_after(x + delta, n % 3, 2), next_after(x - delta, n % 3, 2), hinge,
+                           beside, "beside", n);
+    ExpectSameAsUnfiltered(next_after(x + delta, n % 3, -2), x - delta, hinge, beside, "beside", n);
+
+    // in the plane (dyadic weights of a dyadic triangle: exactly), and ending on it
+    const Triangle flat{dyadic30(), dyadic30(), dyadic30()};
+    const auto plane_point = [&](double alpha, double beta) {
+      return Vector3(flat.v0 + alpha * (flat.v1 - flat.v0) + beta * (flat.v2 - flat.v0));
+    };
+    const auto weight = [&] { return static_cast<double>(static_cast<int>(rng() % 33) - 8) / 16; };
+    ExpectSameAsUnfiltered(plane_point(weight(), weight()), plane_point(weight(), weight()), flat,
+                           in_plane, "in plane", n);
+    const Vector3 on = plane_point(weight(), weight());
+    ExpectSameAsUnfiltered(on, on + delta + 0.25 * point(), flat, on_plane, "ending on the plane", n);
+    ExpectSameAsUnfiltered(on + 0.25 * point(), on, flat, on_plane, "ending on the plane", n);
+    // in the plane to rounding only (full-precision weights)
+    const Vector3 near_p = flat.v0 + u(rng) * (flat.v1 - flat.v0) + u(rng) * (flat.v2 - flat.v0);
+    const Vector3 near_q = flat.v0 + u(rng) * (flat.v1 - flat.v0) + u(rng) * (flat.v2 - flat.v0);
+    ExpectSameAsUnfiltered(near_p, near_q, flat, in_plane, "in plane to rounding", n);
+
+    // slivers (a corner within 1e-12 .. 1e-15 of the opposite edge), needles, tiny
+    // triangles far from the origin
+    const double thin = std::pow(10.0, -12 - static_cast<int>(rng() % 4));
+    const Vector3 c = a + 0.5 * (b - a) + thin * point();
+    const Triangle sliver{a, b, c};
+    const Vector3 through = a + 0.375 * (b - a) + 0.5 * (c - a - 0.375 * (b - a));
+    const Vector3 across = (b - a).cross(c - a).normalized() + 0.1 * point();
+    ExpectSameAsUnfiltered(through + across, through - across, sliver, slivers, "sliver", n);
+    const Triangle needle{a, a + thin * point(), b};
+    ExpectSameAsUnfiltered(a + 0.5 * (b - a) + across, a + 0.5 * (b - a) - across, needle, slivers,
+                           "needle", n);
+    const Vector3 far = 1e3 * point();
+    const Triangle tiny{far, far + 1e-9 * point(), far + 1e-9 * point()};
+    ExpectSameAsUnfiltered(far + 1e-9 * point(), far + 1e-9 * point(), tiny, slivers, "tiny", n);
+  }
+  std::printf("hits: generic %d, vertex %d, edge %d, beside %d, in plane %d, on plane %d, thin %d\n",
+              generic, vertex, edge, beside, in_plane, on_plane, slivers);
+  // every kind has hits as well as misses
+  for (int hits : {generic, vertex, edge, beside, in_plane, on_plane, slivers}) {
+    EXPECT_GT(hits, 200);
+    EXPECT_LT(hits, 2 * 3 * kCases - 200);
+  }
+}
+
+TEST(SegmentTriangleWatertight, FilteredNonFiniteInputIsAMiss) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  for (double bad : {nan, inf, -inf}) {
+    for (int k = 0; k < 15; ++k) {
+      Vector3 p(1, 1, 1), q(1, 1, -1);
+      Triangle t = kTri;
+      Vector3* slots[5] = {&p, &q, &t.v0, &t.v1, &t.v2};
+      (*slots[k / 3])[k % 3] = bad;
+      EXPECT_FALSE(IntersectSegmentTriangleWatertight(p, q, t).hit) << bad << " at " << k;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace hapticd::geometry
