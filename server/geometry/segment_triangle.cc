@@ -31,17 +31,14 @@ TriangleHit MollerTrumbore(const Vector3& origin, const Vector3& dir, const Tria
 }
 
 // Barycentrics of the point where the line crosses the triangle, from the line's
-// signed volumes against the three directed edges (each weight is the volume of the
-// edge opposite its vertex). An exactly-zero sign pins that weight to zero, so a
-// touching edge or vertex reports u, v exactly on the boundary.
-void SetBarycentrics(const Vector3& o, const Vector3& dir, const Triangle& tri, int sign_01,
-                     int sign_12, int sign_20, TriangleHit& hit) {
-  const auto volume = [&](const Vector3& a, const Vector3& b, int sign) {
-    return sign == 0 ? 0.0 : dir.dot((a - o).cross(b - o));
-  };
-  const double w0 = volume(tri.v1, tri.v2, sign_12);
-  const double w1 = volume(tri.v2, tri.v0, sign_20);
-  const double w2 = volume(tri.v0, tri.v1, sign_01);
+// signed volumes against the three directed edges (w0 = dir . ((v1 - o) x (v2 - o)),
+// the volume of the edge opposite v0, and so on). An exactly-zero sign pins that weight
+// to zero, so a touching edge or vertex reports u, v exactly on the boundary.
+void SetBarycentrics(double w0, double w1, double w2, int sign_01, int sign_12, int sign_20,
+                     TriangleHit& hit) {
+  if (sign_12 == 0) w0 = 0;
+  if (sign_20 == 0) w1 = 0;
+  if (sign_01 == 0) w2 = 0;
   const double sum = w0 + w1 + w2;
   // the rounded volumes can all vanish (or overflow) where the exact signs do not: then
   // no corner is known to be nearer, and the centroid stands for the hit
@@ -51,6 +48,17 @@ void SetBarycentrics(const Vector3& o, const Vector3& dir, const Triangle& tri, 
   }
   hit.u = std::clamp(w1 / sum, 0.0, 1.0);
   hit.v = std::clamp(w2 / sum, 0.0, 1.0 - hit.u);
+}
+
+// dir . ((a - o) x (b - o)), evaluated as FilterSegmentTriangle evaluates it.
+double LineEdgeVolume(const Vector3& o, const Vector3& dir, const Vector3& a, const Vector3& b) {
+  return dir.dot((a - o).cross(b - o));
+}
+
+void SetBarycentrics(const Vector3& o, const Vector3& dir, const Triangle& tri, int sign_01,
+                     int sign_12, int sign_20, TriangleHit& hit) {
+  SetBarycentrics(LineEdgeVolume(o, dir, tri.v1, tri.v2), LineEdgeVolume(o, dir, tri.v2, tri.v0),
+                  LineEdgeVolume(o, dir, tri.v0, tri.v1), sign_01, sign_12, sign_20, hit);
 }
 
 // The t at which p + t (q - p), taken as lying in the triangle's plane (n its area
@@ -88,8 +96,10 @@ bool AllFinite(const Vector3& a, const Vector3& b, const Triangle& tri) {
 // t, u and v of a hit, once the exact signs (sides of p and q, line against the edges)
 // say that p -> q meets the triangle. Shared by the filtered and the exact decisions,
 // so that both report the same numbers.
+// volumes: w0, w1, w2 as SetBarycentrics takes them.
 TriangleHit CompleteSegmentHit(const Vector3& p, const Vector3& q, const Triangle& tri,
-                               int side_p, int side_q, int sign_01, int sign_12, int sign_20) {
+                               int side_p, int side_q, int sign_01, int sign_12, int sign_20,
+                               const double volumes[3]) {
   TriangleHit hit{.hit = true};
   // t from the signed distances to the plane; an endpoint on the plane is exact.
   const Vector3 n = (tri.v1 - tri.v0).cross(tri.v2 - tri.v0);
@@ -108,14 +118,15 @@ TriangleHit CompleteSegmentHit(const Vector3& p, const Vector3& q, const Triangl
     hit.t = std::abs(dist_p - dist_q) > rounding ? std::clamp(dist_p / (dist_p - dist_q), 0.0, 1.0)
                                                  : EntryWithinPlane(p, q, tri, n);
   }
-  SetBarycentrics(p, q - p, tri, sign_01, sign_12, sign_20, hit);
+  SetBarycentrics(volumes[0], volumes[1], volumes[2], sign_01, sign_12, sign_20, hit);
   return hit;
 }
 
-// Shewchuk's first-stage bound for a 3x3 determinant of differences of the inputs,
-// relative to its permanent (the same bound as Orient3d's filter).
+// Shewchuk's first-stage bound for a 3x3 determinant of differences of the inputs is
+// (7 + 56 eps) eps times its permanent; the filter below bounds the permanents by the
+// coordinates' largest magnitude and rounds that bound up generously with 8 eps.
 constexpr double kHalfUlp = std::numeric_limits<double>::epsilon() / 2;
-constexpr double kDeterminantErrorBound = (7.0 + 56.0 * kHalfUlp) * kHalfUlp;
+constexpr double kDeterminantErrorBound = 8 * kHalfUlp;
 // Added to every bound: products that underflow lose their relative accuracy, and their
 // absolute error, scaled by coordinates up to 1e100, stays below this.
 constexpr double kUnderflowGuard = 1e-200;
@@ -123,10 +134,12 @@ constexpr double kUnderflowGuard = 1e-200;
 // The five signs the watertight segment test decides on, when floating point proves
 // them all (answer kHit, signs as Orient3d gives them) or proves a miss whatever the
 // undecided ones are (kMiss); kUndecided otherwise, and on non-finite input that does
-// not already prove a miss (the exact test then answers).
+// not already prove a miss (the exact test then answers). volumes: the line's rounded
+// volumes against the edges, for SetBarycentrics.
 struct FilteredSigns {
   enum Answer { kMiss, kHit, kUndecided } answer = kUndecided;
   int side_p = 0, side_q = 0, sign_01 = 0, sign_12 = 0, sign_20 = 0;
+  double volumes[3] = {};
 };
 
 // With a = v0 - p, b = v1 - p, c = v2 - p and d = q - p (rounded):
@@ -137,64 +150,62 @@ struct FilteredSigns {
 // the last exactly by multilinearity, so q's side costs three subtractions, and its
 // bound the sum of the four bounds plus the rounding of those subtractions. Each of the
 // first four is a determinant of rounded differences of the inputs, evaluated as
-// Orient3d's filter evaluates one, with the same bound on its error.
+// Orient3d's filter evaluates one; with m the largest |coordinate| of a, b, c, the
+// permanent of d . (a x b) is at most 2 |d|_1 m^2 and that of det[a, b, c] 6 m^3.
 FilteredSigns FilterSegmentTriangle(const Vector3& p, const Vector3& q, const Triangle& tri) {
   const double dx = q.x() - p.x(), dy = q.y() - p.y(), dz = q.z() - p.z();
   const double ax = tri.v0.x() - p.x(), ay = tri.v0.y() - p.y(), az = tri.v0.z() - p.z();
   const double bx = tri.v1.x() - p.x(), by = tri.v1.y() - p.y(), bz = tri.v1.z() - p.z();
   const double cx = tri.v2.x() - p.x(), cy = tri.v2.y() - p.y(), cz = tri.v2.z() - p.z();
-  // cross products, and the permanents (sums of the products' magnitudes) of their parts
   const auto cross = [](double ux, double uy, double uz, double vx, double vy, double vz,
-                        double out[3], double permanent[3]) {
-    const double x1 = uy * vz, x2 = uz * vy;
-    const double y1 = uz * vx, y2 = ux * vz;
-    const double z1 = ux * vy, z2 = uy * vx;
-    out[0] = x1 - x2;
-    out[1] = y1 - y2;
-    out[2] = z1 - z2;
-    permanent[0] = std::abs(x1) + std::abs(x2);
-    permanent[1] = std::abs(y1) + std::abs(y2);
-    permanent[2] = std::abs(z1) + std::abs(z2);
+                        double out[3]) {
+    out[0] = uy * vz - uz * vy;
+    out[1] = uz * vx - ux * vz;
+    out[2] = ux * vy - uy * vx;
   };
-  double ab[3], bc[3], ca[3], ab_perm[3], bc_perm[3], ca_perm[3];
-  cross(ax, ay, az, bx, by, bz, ab, ab_perm);
-  cross(bx, by, bz, cx, cy, cz, bc, bc_perm);
-  cross(cx, cy, cz, ax, ay, az, ca, ca_perm);
+  double ab[3], bc[3], ca[3];
+  cross(ax, ay, az, bx, by, bz, ab);
+  cross(bx, by, bz, cx, cy, cz, bc);
+  cross(cx, cy, cz, ax, ay, az, ca);
   const auto dot = [](double wx, double wy, double wz, const double v[3]) {
     return wx * v[0] + wy * v[1] + wz * v[2];
   };
-  const auto bound = [](double wx, double wy, double wz, const double permanent[3]) {
-    return kDeterminantErrorBound * (std::abs(wx) * permanent[0] + std::abs(wy) * permanent[1] +
-                                     std::abs(wz) * permanent[2]) +
-           kUnderflowGuard;
-  };
-  const double s01 = dot(dx, dy, dz, ab), e01 = bound(dx, dy, dz, ab_perm);
-  const double s12 = dot(dx, dy, dz, bc), e12 = bound(dx, dy, dz, bc_perm);
-  const double s20 = dot(dx, dy, dz, ca), e20 = bound(dx, dy, dz, ca_perm);
-  const double vp = dot(ax, ay, az, bc), ep = bound(ax, ay, az, bc_perm);
+  const double s01 = dot(dx, dy, dz, ab);
+  const double s12 = dot(dx, dy, dz, bc);
+  const double s20 = dot(dx, dy, dz, ca);
+  const double vp = dot(ax, ay, az, bc);
+  const double m = std::max({std::abs(ax), std::abs(ay), std::abs(az), std::abs(bx), std::abs(by),
+                             std::abs(bz), std::abs(cx), std::abs(cy), std::abs(cz)});
+  const double m2 = m * m;
+  const double d1 = std::abs(dx) + std::abs(dy) + std::abs(dz);
+  const double e_edge = kDeterminantErrorBound * (2 * d1 * m2) + kUnderflowGuard;
+  const double e_p = kDeterminantErrorBound * (6 * m * m2) + kUnderflowGuard;
   // the four errors, summed with room for that sum's rounding, and the three subtractions'
   const double vq = ((vp - s01) - s12) - s20;
-  const double eq = (ep + e01 + e12 + e20) * (1 + 8 * kHalfUlp) +
-                    4 * kHalfUlp * (std::abs(vp) + std::abs(s01) + std::abs(s12) + std::abs(s20));
+  const double e_q = (e_p + 3 * e_edge) * (1 + 8 * kHalfUlp) +
+                     4 * kHalfUlp * (std::abs(vp) + std::abs(s01) + std::abs(s12) + std::abs(s20));
 
   FilteredSigns f;
   // a miss whatever the rest: the line passes two edges opposite ways, or p and q lie
   // strictly on one side (NaN compares false and proves nothing)
-  const bool any_positive = s01 > e01 || s12 > e12 || s20 > e20;
-  const bool any_negative = s01 < -e01 || s12 < -e12 || s20 < -e20;
-  const bool one_side = (vp > ep && vq > eq) || (vp < -ep && vq < -eq);
+  const bool any_positive = s01 > e_edge || s12 > e_edge || s20 > e_edge;
+  const bool any_negative = s01 < -e_edge || s12 < -e_edge || s20 < -e_edge;
+  const bool one_side = (vp > e_p && vq > e_q) || (vp < -e_p && vq < -e_q);
   if ((any_positive && any_negative) || one_side) {
     f.answer = FilteredSigns::kMiss;
     return f;
   }
-  const bool all_known = std::abs(s01) > e01 && std::abs(s12) > e12 && std::abs(s20) > e20 &&
-                         std::abs(vp) > ep && std::abs(vq) > eq;
+  const bool all_known = std::abs(s01) > e_edge && std::abs(s12) > e_edge &&
+                         std::abs(s20) > e_edge && std::abs(vp) > e_p && std::abs(vq) > e_q;
   if (!all_known) return f;
   // every sign proven, the edges agree and p, q lie strictly on opposite sides: a hit
   f.answer = FilteredSigns::kHit;
   f.side_p = vp > 0 ? -1 : 1;
   f.side_q = -f.side_p;
   f.sign_01 = f.sign_12 = f.sign_20 = any_positive ? 1 : -1;
+  f.volumes[0] = s12;
+  f.volumes[1] = s20;
+  f.volumes[2] = s01;
   return f;
 }
 
@@ -213,7 +224,8 @@ TriangleHit IntersectSegmentTriangleWatertight(const Vector3& p, const Vector3& 
   const FilteredSigns f = FilterSegmentTriangle(p, q, tri);
   if (f.answer == FilteredSigns::kMiss) return {};
   if (f.answer == FilteredSigns::kUndecided) return IntersectSegmentTriangleWatertightUnfiltered(p, q, tri);
-  return CompleteSegmentHit(p, q, tri, f.side_p, f.side_q, f.sign_01, f.sign_12, f.sign_20);
+  return CompleteSegmentHit(p, q, tri, f.side_p, f.side_q, f.sign_01, f.sign_12, f.sign_20,
+                            f.volumes);
 }
 
 TriangleHit IntersectSegmentTriangleWatertightUnfiltered(const Vector3& p, const Vector3& q,
@@ -231,7 +243,10 @@ TriangleHit IntersectSegmentTriangleWatertightUnfiltered(const Vector3& p, const
   const int sign_12 = Orient3d(p, q, tri.v1, tri.v2);
   const int sign_20 = Orient3d(p, q, tri.v2, tri.v0);
   if (!SignsAgree(sign_01, sign_12, sign_20)) return {};
-  return CompleteSegmentHit(p, q, tri, side_p, side_q, sign_01, sign_12, sign_20);
+  const Vector3 d = q - p;
+  const double volumes[3] = {LineEdgeVolume(p, d, tri.v1, tri.v2), LineEdgeVolume(p, d, tri.v2, tri.v0),
+                             LineEdgeVolume(p, d, tri.v0, tri.v1)};
+  return CompleteSegmentHit(p, q, tri, side_p, side_q, sign_01, sign_12, sign_20, volumes);
 }
 
 TriangleHit IntersectRayTriangleWatertight(const Vector3& origin, const Vector3& dir,
