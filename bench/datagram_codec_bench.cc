@@ -1,6 +1,8 @@
 // The realtime datagram codec's cost per datagram (server/net/datagram_codec.h): encode
 // (protobuf + keyed BLAKE2b tag) and decode (tag check + parse), for a typical
-// DeviceState and DeviceCommand, plus the tag alone. bench/run_latency.sh reports them.
+// DeviceState and DeviceCommand, with the session's key prepared once (TagKey, as the
+// server and the proxy keep it); plus the tag alone, with a prepared key and with a plain
+// one (prepared on every call), and preparing a key. bench/run_latency.sh reports them.
 #include <array>
 #include <benchmark/benchmark.h>
 
@@ -44,7 +46,7 @@ DeviceCommandSample TypicalCommand() {
 
 void BM_EncodeState(benchmark::State& run) {
   DatagramCodec codec;
-  const SessionKey key = BenchKey();
+  const TagKey key(BenchKey());
   const DeviceStateSample state = TypicalState();
   std::array<uint8_t, kMaxDatagramSize> out;
   std::size_t size = 0;
@@ -58,7 +60,7 @@ BENCHMARK(BM_EncodeState);
 
 void BM_DecodeState(benchmark::State& run) {
   DatagramCodec codec;
-  const SessionKey key = BenchKey();
+  const TagKey key(BenchKey());
   std::array<uint8_t, kMaxDatagramSize> bytes;
   const std::size_t size = codec.EncodeState(TypicalState(), key, bytes);
   const std::span<const uint8_t> datagram(bytes.data(), size);
@@ -74,7 +76,7 @@ BENCHMARK(BM_DecodeState);
 
 void BM_EncodeCommand(benchmark::State& run) {
   DatagramCodec codec;
-  const SessionKey key = BenchKey();
+  const TagKey key(BenchKey());
   const DeviceCommandSample command = TypicalCommand();
   std::array<uint8_t, kMaxDatagramSize> out;
   std::size_t size = 0;
@@ -88,7 +90,7 @@ BENCHMARK(BM_EncodeCommand);
 
 void BM_DecodeCommand(benchmark::State& run) {
   DatagramCodec codec;
-  const SessionKey key = BenchKey();
+  const TagKey key(BenchKey());
   std::array<uint8_t, kMaxDatagramSize> bytes;
   const std::size_t size = codec.EncodeCommand(TypicalCommand(), key, bytes);
   const std::span<const uint8_t> datagram(bytes.data(), size);
@@ -105,7 +107,7 @@ BENCHMARK(BM_DecodeCommand);
 // The tag check alone (keyed BLAKE2b over a state's bytes): the crypto share of a decode.
 void BM_CheckTag(benchmark::State& run) {
   DatagramCodec codec;
-  const SessionKey key = BenchKey();
+  const TagKey key(BenchKey());
   std::array<uint8_t, kMaxDatagramSize> bytes;
   const std::size_t size = codec.EncodeState(TypicalState(), key, bytes);
   const std::span<const uint8_t> datagram(bytes.data(), size);
@@ -113,6 +115,28 @@ void BM_CheckTag(benchmark::State& run) {
   run.counters["bytes"] = static_cast<double>(size);
 }
 BENCHMARK(BM_CheckTag);
+
+// The same check with the plain session key: the key's block hashed again every call.
+void BM_CheckTagUnprepared(benchmark::State& run) {
+  DatagramCodec codec;
+  const SessionKey key = BenchKey();
+  std::array<uint8_t, kMaxDatagramSize> bytes;
+  const std::size_t size = codec.EncodeState(TypicalState(), key, bytes);
+  const std::span<const uint8_t> datagram(bytes.data(), size);
+  for (auto _ : run) benchmark::DoNotOptimize(CheckTag(datagram, key));
+  run.counters["bytes"] = static_cast<double>(size);
+}
+BENCHMARK(BM_CheckTagUnprepared);
+
+// Preparing a session's key (once per session).
+void BM_PrepareTagKey(benchmark::State& run) {
+  SessionKey key = BenchKey();
+  for (auto _ : run) {
+    key[0] += 1;
+    benchmark::DoNotOptimize(TagKey(key));
+  }
+}
+BENCHMARK(BM_PrepareTagKey);
 
 }  // namespace
 

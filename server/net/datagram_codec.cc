@@ -2,6 +2,10 @@
 
 #include <sodium.h>
 
+#include <algorithm>
+#include <bit>
+#include <cstring>
+
 #include <google/protobuf/arena.h>
 
 #include "hapticd/v1/hapticd.pb.h"
@@ -41,13 +45,89 @@ Quaternion FromProto(const pb::Quat& q, bool present) {
   return present ? Quaternion(q.w(), q.x(), q.y(), q.z()) : Quaternion::Identity();
 }
 
-void ComputeTag(std::span<const uint8_t> message, const SessionKey& key, uint8_t* tag) {
-  crypto_generichash(tag, kTagSize, message.data(), message.size(), key.data(), key.size());
+// ---- BLAKE2b (RFC 7693), 16-byte digest, 32-byte key ----
+//
+// The hash state h starts as the IV xored with the parameter block (digest length, key
+// length, fanout 1, depth 1); each 128-byte block is mixed into it by Compress, with t the
+// bytes hashed so far (the padding excluded) and the last block flagged. A keyed hash
+// hashes the key, zero-padded to a block, before the message: that first compression
+// depends on the key alone, and TagKey keeps its result.
+constexpr std::size_t kBlockSize = 128;
+constexpr std::array<uint64_t, 8> kIv = {
+    0x6a09e667f3bcc908, 0xbb67ae8584caa73b, 0x3c6ef372fe94f82b, 0xa54ff53a5f1d36f1,
+    0x510e527fade682d1, 0x9b05688c2b3e6c1f, 0x1f83d9abfb41bd6b, 0x5be0cd19137e2179};
+constexpr uint8_t kSigma[12][16] = {
+    {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15}, {14, 10, 4, 8, 9, 15, 13, 6, 1, 12, 0, 2, 11, 7, 5, 3},
+    {11, 8, 12, 0, 5, 2, 15, 13, 10, 14, 3, 6, 7, 1, 9, 4}, {7, 9, 3, 1, 13, 12, 11, 14, 2, 6, 5, 10, 4, 0, 15, 8},
+    {9, 0, 5, 7, 2, 4, 10, 15, 14, 1, 11, 12, 6, 8, 3, 13}, {2, 12, 6, 10, 0, 11, 8, 3, 4, 13, 7, 5, 15, 14, 1, 9},
+    {12, 5, 1, 15, 14, 13, 4, 10, 0, 7, 6, 3, 9, 2, 8, 11}, {13, 11, 7, 14, 12, 1, 3, 9, 5, 0, 15, 4, 8, 6, 2, 10},
+    {6, 15, 14, 9, 11, 3, 0, 8, 12, 2, 13, 7, 1, 4, 10, 5}, {10, 2, 8, 4, 7, 6, 1, 5, 15, 11, 9, 14, 3, 12, 13, 0},
+    {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15}, {14, 10, 4, 8, 9, 15, 13, 6, 1, 12, 0, 2, 11, 7, 5, 3}};
+
+// Little-endian words, as BLAKE2b reads and writes them.
+uint64_t Load64(const uint8_t* p) {
+  uint64_t v = 0;
+  if constexpr (std::endian::native == std::endian::little) {
+    std::memcpy(&v, p, sizeof v);
+  } else {
+    for (int i = 7; i >= 0; --i) v = (v << 8) | p[i];
+  }
+  return v;
+}
+void Store64(uint64_t v, uint8_t* p) {
+  for (int i = 0; i < 8; ++i) p[i] = static_cast<uint8_t>(v >> (8 * i));
+}
+
+// The mixing function G on four words of the working vector and two message words.
+inline void Mix(uint64_t& a, uint64_t& b, uint64_t& c, uint64_t& d, uint64_t x, uint64_t y) {
+  a = a + b + x;
+  d = std::rotr(d ^ a, 32);
+  c = c + d;
+  b = std::rotr(b ^ c, 24);
+  a = a + b + y;
+  d = std::rotr(d ^ a, 16);
+  c = c + d;
+  b = std::rotr(b ^ c, 63);
+}
+
+// Mixes one block into h; t: bytes hashed up to the end of this block.
+void Compress(std::array<uint64_t, 8>& h, const uint8_t* block, uint64_t t, bool last) {
+  uint64_t m[16];
+  for (int i = 0; i < 16; ++i) m[i] = Load64(block + 8 * i);
+  uint64_t v[16];
+  for (int i = 0; i < 8; ++i) {
+    v[i] = h[i];
+    v[i + 8] = kIv[i];
+  }
+  v[12] ^= t;  // the counter's high word (v[13]) stays 0: datagrams are short
+  if (last) v[14] = ~v[14];
+  for (const auto& s : kSigma) {
+    Mix(v[0], v[4], v[8], v[12], m[s[0]], m[s[1]]);
+    Mix(v[1], v[5], v[9], v[13], m[s[2]], m[s[3]]);
+    Mix(v[2], v[6], v[10], v[14], m[s[4]], m[s[5]]);
+    Mix(v[3], v[7], v[11], v[15], m[s[6]], m[s[7]]);
+    Mix(v[0], v[5], v[10], v[15], m[s[8]], m[s[9]]);
+    Mix(v[1], v[6], v[11], v[12], m[s[10]], m[s[11]]);
+    Mix(v[2], v[7], v[8], v[13], m[s[12]], m[s[13]]);
+    Mix(v[3], v[4], v[9], v[14], m[s[14]], m[s[15]]);
+  }
+  for (int i = 0; i < 8; ++i) h[i] ^= v[i] ^ v[i + 8];
+}
+
+// The initial state of a 16-byte digest under a 32-byte key, and the key's block.
+std::array<uint64_t, 8> InitialState() {
+  std::array<uint64_t, 8> h = kIv;
+  h[0] ^= 0x01010000 ^ (kSessionKeySize << 8) ^ kTagSize;
+  return h;
+}
+std::array<uint8_t, kBlockSize> KeyBlock(const SessionKey& key) {
+  std::array<uint8_t, kBlockSize> block{};
+  std::copy(key.begin(), key.end(), block.begin());
+  return block;
 }
 
 // Serializes message and appends its tag; 0 when it does not fit.
-std::size_t SealInto(const google::protobuf::MessageLite& message, const SessionKey& key,
-                     std::span<uint8_t> out) {
+std::size_t SealInto(const google::protobuf::MessageLite& message, const TagKey& key, std::span<uint8_t> out) {
   const std::size_t limit = std::min(out.size(), kMaxDatagramSize);
   const std::size_t size = message.ByteSizeLong();
   if (size + kTagSize > limit) return 0;
@@ -57,6 +137,35 @@ std::size_t SealInto(const google::protobuf::MessageLite& message, const Session
 }
 
 }  // namespace
+
+TagKey::TagKey(const SessionKey& key) : key_(key), h_(InitialState()) {
+  const std::array<uint8_t, kBlockSize> block = KeyBlock(key);
+  Compress(h_, block.data(), kBlockSize, false);
+}
+
+void ComputeTag(std::span<const uint8_t> message, const TagKey& key, uint8_t* tag) {
+  std::array<uint64_t, 8> h;
+  uint64_t t = kBlockSize;
+  std::array<uint8_t, kBlockSize> last{};
+  if (message.empty()) {
+    // the key's block is the last one
+    h = InitialState();
+    last = KeyBlock(key.key());
+  } else {
+    // from the state after the key's block: every full block but the last, then the
+    // rest zero-padded (a message of whole blocks ends on a full one)
+    h = key.state();
+    while (message.size() > kBlockSize) {
+      t += kBlockSize;
+      Compress(h, message.data(), t, false);
+      message = message.subspan(kBlockSize);
+    }
+    std::copy(message.begin(), message.end(), last.begin());
+    t += message.size();
+  }
+  Compress(h, last.data(), t, true);
+  for (std::size_t i = 0; i < kTagSize / 8; ++i) Store64(h[i], tag + 8 * i);
+}
 
 std::string_view DatagramErrorName(DatagramError error) {
   switch (error) {
@@ -85,13 +194,13 @@ struct DatagramCodec::Impl {
 };
 
 DatagramCodec::DatagramCodec() : impl_(std::make_unique<Impl>()) {
-  // libsodium picks its BLAKE2b implementation once; thread-safe and idempotent.
+  // libsodium (the session keys' random bytes) starts once; thread-safe and idempotent.
   if (sodium_init() < 0) std::abort();
 }
 
 DatagramCodec::~DatagramCodec() = default;
 
-std::size_t DatagramCodec::EncodeState(const DeviceStateSample& state, const SessionKey& key,
+std::size_t DatagramCodec::EncodeState(const DeviceStateSample& state, const TagKey& key,
                                        std::span<uint8_t> out) {
   auto* message = google::protobuf::Arena::CreateMessage<pb::DeviceState>(&impl_->arena);
   message->set_session_id(state.session_id);
@@ -110,7 +219,7 @@ std::size_t DatagramCodec::EncodeState(const DeviceStateSample& state, const Ses
   return size;
 }
 
-std::size_t DatagramCodec::EncodeCommand(const DeviceCommandSample& command, const SessionKey& key,
+std::size_t DatagramCodec::EncodeCommand(const DeviceCommandSample& command, const TagKey& key,
                                          std::span<uint8_t> out) {
   auto* message = google::protobuf::Arena::CreateMessage<pb::DeviceCommand>(&impl_->arena);
   message->set_session_id(command.session_id);
@@ -177,7 +286,7 @@ DatagramError DatagramCodec::ParseCommand(std::span<const uint8_t> datagram, Dev
   return result;
 }
 
-bool CheckTag(std::span<const uint8_t> datagram, const SessionKey& key) {
+bool CheckTag(std::span<const uint8_t> datagram, const TagKey& key) {
   if (datagram.size() < kTagSize) return false;
   const auto body = datagram.first(datagram.size() - kTagSize);
   uint8_t expected[kTagSize];

@@ -1,12 +1,17 @@
 #pragma once
 // The realtime channel's datagrams (proto/hapticd/v1/hapticd.proto): a DeviceState or
 // DeviceCommand encoded with protobuf, followed by a 16-byte keyed BLAKE2b tag under the
-// session's key.
+// session's key (RFC 7693; the same bytes as libsodium's crypto_generichash).
 //
 // A codec owns one protobuf arena over a fixed buffer, so after construction encoding and
 // decoding allocate nothing: one codec per thread, used on the real-time path. Decoding
 // never throws; a datagram that is too long, does not parse or carries a bad tag yields
 // an error code for the caller to count.
+//
+// Tagging. Keyed BLAKE2b hashes the key, zero-padded to a 128-byte block, as the first
+// block of the message; a TagKey keeps the hash state after that block, so a tag costs
+// one compression per 128 bytes of datagram (two for a typical state without it). Make a
+// TagKey once per session and tag with it; the SessionKey overloads make one per call.
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -56,6 +61,22 @@ struct DeviceCommandSample {
   uint32_t flags = 0;  // hapticd.v1.CommandFlags
 };
 
+// A session key ready to tag with: BLAKE2b's chaining value after the key block (one
+// compression, done here). Cheap to copy (96 bytes); the default is the all-zero key's.
+class TagKey {
+ public:
+  TagKey() : TagKey(SessionKey{}) {}
+  explicit TagKey(const SessionKey& key);
+
+  const SessionKey& key() const { return key_; }
+  // The 8 words of hash state after the key block.
+  const std::array<uint64_t, 8>& state() const { return h_; }
+
+ private:
+  SessionKey key_;
+  std::array<uint64_t, 8> h_;
+};
+
 // Why a datagram was dropped.
 enum class DatagramError {
   kNone,
@@ -77,9 +98,15 @@ class DatagramCodec {
 
   // Encode a message and its tag into out; returns the datagram's size, or 0 when it
   // does not fit in out (or in kMaxDatagramSize). Real-time safe.
-  std::size_t EncodeState(const DeviceStateSample& state, const SessionKey& key, std::span<uint8_t> out);
-  std::size_t EncodeCommand(const DeviceCommandSample& command, const SessionKey& key,
-                            std::span<uint8_t> out);
+  std::size_t EncodeState(const DeviceStateSample& state, const TagKey& key, std::span<uint8_t> out);
+  std::size_t EncodeCommand(const DeviceCommandSample& command, const TagKey& key, std::span<uint8_t> out);
+  // The same, preparing the key on each call (one compression more).
+  std::size_t EncodeState(const DeviceStateSample& state, const SessionKey& key, std::span<uint8_t> out) {
+    return EncodeState(state, TagKey(key), out);
+  }
+  std::size_t EncodeCommand(const DeviceCommandSample& command, const SessionKey& key, std::span<uint8_t> out) {
+    return EncodeCommand(command, TagKey(key), out);
+  }
 
   // Parse a datagram's message without checking its tag (the session id in it says
   // which key to check it with: CheckTag). kNone, kOversized or kMalformed; out is
@@ -93,8 +120,15 @@ class DatagramCodec {
 };
 
 // Whether a datagram's last kTagSize bytes are the tag of the rest under key; constant
-// time in the tag. False for datagrams shorter than a tag.
-bool CheckTag(std::span<const uint8_t> datagram, const SessionKey& key);
+// time in the tag. False for datagrams shorter than a tag. Real-time safe.
+bool CheckTag(std::span<const uint8_t> datagram, const TagKey& key);
+inline bool CheckTag(std::span<const uint8_t> datagram, const SessionKey& key) {
+  return CheckTag(datagram, TagKey(key));
+}
+
+// The 16-byte keyed BLAKE2b tag of message (any length, empty included) under key: what
+// crypto_generichash(tag, 16, message, size, key, 32) writes. Real-time safe.
+void ComputeTag(std::span<const uint8_t> message, const TagKey& key, uint8_t* tag);
 
 // A new random session key (libsodium's CSPRNG). Not real-time.
 SessionKey MakeSessionKey();

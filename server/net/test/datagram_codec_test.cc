@@ -1,9 +1,11 @@
 #include "server/net/datagram_codec.h"
 
+#include <algorithm>
 #include <random>
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <sodium.h>
 
 #include "server/net/test/count_allocations.h"
 
@@ -93,6 +95,43 @@ TEST(DatagramCodec, TagDependsOnKeyAndEveryByte) {
   EXPECT_FALSE(CheckTag({buffer.data(), kTagSize - 1}, key));
 }
 
+// The tag from a prepared key is libsodium's keyed BLAKE2b (the independent oracle, which
+// the device side and the Python client use), for every length a datagram's body can
+// have, across block boundaries and for the empty message, under random keys.
+TEST(DatagramCodec, TagIsLibsodiumKeyedBlake2b) {
+  ASSERT_GE(sodium_init(), 0);
+  std::mt19937_64 random(12);
+  std::vector<uint8_t> message(kMaxDatagramSize);
+  for (int trial = 0; trial < 4000; ++trial) {
+    SessionKey key;
+    for (auto& byte : key) byte = static_cast<uint8_t>(random());
+    for (auto& byte : message) byte = static_cast<uint8_t>(random());
+    const std::size_t size = trial < 520 ? trial % (kMaxDatagramSize + 1) : random() % (kMaxDatagramSize + 1);
+    uint8_t expected[kTagSize];
+    crypto_generichash(expected, kTagSize, message.data(), size, key.data(), key.size());
+    uint8_t tag[kTagSize];
+    ComputeTag({message.data(), size}, TagKey(key), tag);
+    ASSERT_TRUE(std::equal(tag, tag + kTagSize, expected)) << "length " << size << ", trial " << trial;
+  }
+}
+
+// A prepared key and a plain one are the same key to every call.
+TEST(DatagramCodec, TagKeyAndSessionKeyAgree) {
+  DatagramCodec codec;
+  const SessionKey key = TestKey(4);
+  const TagKey tag_key(key);
+  EXPECT_EQ(tag_key.key(), key);
+  std::array<uint8_t, kMaxDatagramSize> a;
+  std::array<uint8_t, kMaxDatagramSize> b;
+  const std::size_t size = codec.EncodeState(MakeState(), key, a);
+  ASSERT_EQ(codec.EncodeState(MakeState(), tag_key, b), size);
+  EXPECT_TRUE(std::equal(a.begin(), a.begin() + size, b.begin()));
+  EXPECT_TRUE(CheckTag({a.data(), size}, tag_key));
+  EXPECT_FALSE(CheckTag({a.data(), size}, TagKey(TestKey(5))));
+  // the default is the all-zero key
+  EXPECT_EQ(TagKey().state(), TagKey(SessionKey{}).state());
+}
+
 TEST(DatagramCodec, RefusesOversizedShortAndGarbage) {
   DatagramCodec codec;
   DeviceStateSample state;
@@ -129,11 +168,13 @@ TEST(DatagramCodec, AllocatesNothingAfterConstruction) {
   DeviceCommandSample command;
   command.f_W = {1, 2, 3};
   const long before = hapticd::testing::AllocationCount();
+  const TagKey tag_key(key);
   for (int i = 0; i < 1000; ++i) {
     const std::size_t size = codec.EncodeState(MakeState(), key, buffer);
     ASSERT_EQ(codec.ParseState({buffer.data(), size}, state), DatagramError::kNone);
     ASSERT_TRUE(CheckTag({buffer.data(), size}, key));
-    const std::size_t command_size = codec.EncodeCommand(command, key, buffer);
+    ASSERT_TRUE(CheckTag({buffer.data(), size}, tag_key));
+    const std::size_t command_size = codec.EncodeCommand(command, tag_key, buffer);
     ASSERT_EQ(codec.ParseCommand({buffer.data(), command_size}, command), DatagramError::kNone);
   }
   EXPECT_EQ(hapticd::testing::AllocationCount() - before, 0);
