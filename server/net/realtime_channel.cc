@@ -19,7 +19,14 @@
 namespace hapticd::net {
 namespace {
 
-constexpr int64_t kTickNs = 1'000'000;  // silent sessions are looked at every millisecond
+// The housekeeping pass (silent sessions, closes, timeouts; see realtime_channel.h): at
+// most one a millisecond by the clock, and when it has nothing due, one every kIdlePassNs
+// (how soon a close or a new session's silence is seen at the latest); one due within
+// kEarlyPassNs runs right after a batch of datagrams, without a wake-up of its own (a
+// device's next state, due 0.5 ms before its silent tick, may come a little early).
+constexpr int64_t kTickNs = 1'000'000;
+constexpr int64_t kIdlePassNs = 2'000'000;
+constexpr int64_t kEarlyPassNs = kTickNs * 3 / 4;
 constexpr int kSocketBufferBytes = 4 << 20;
 
 double NsToSeconds(int64_t ns) { return static_cast<double>(ns) * 1e-9; }
@@ -114,20 +121,24 @@ void RealtimeChannel::Stop() {
 }
 
 void RealtimeChannel::Run() {
-  int64_t next_tick_ns = MonotonicNowNs() + kTickNs;
+  int64_t last_pass_ns = MonotonicNowNs();
+  next_pass_ns_ = last_pass_ns + kTickNs;
   pollfd waiter{fd_, POLLIN, 0};
   while (!stop_.load(std::memory_order_relaxed)) {
-    // Wait for datagrams, at most until the next millisecond's silent-session pass.
-    const int64_t wait_ns = std::clamp<int64_t>(next_tick_ns - MonotonicNowNs(), 0, kTickNs);
+    // Wait for datagrams, at most until the pass is due (never sooner than a millisecond
+    // after the last one, so that a stall is not replayed tick by tick).
+    const int64_t due_ns = std::max(next_pass_ns_, last_pass_ns + kTickNs);
+    const int64_t wait_ns = std::clamp<int64_t>(due_ns - MonotonicNowNs(), 0, kIdlePassNs);
     const timespec timeout{0, static_cast<long>(wait_ns)};
     waiter.revents = 0;
-    if (ppoll(&waiter, 1, &timeout, nullptr) > 0) ReceiveAndReply(MonotonicNowNs());
+    const bool received = ppoll(&waiter, 1, &timeout, nullptr) > 0;
+    if (received) ReceiveAndReply(MonotonicNowNs());
 
+    // The pass, when due; while awake for datagrams, also when due soon.
     const int64_t now_ns = MonotonicNowNs();
-    if (now_ns >= next_tick_ns) {
+    if (now_ns >= due_ns - (received ? kEarlyPassNs : 0)) {
       TickSilentSessions(now_ns);
-      // After a stall, resume from now rather than replay the missed milliseconds.
-      next_tick_ns = std::max(next_tick_ns + kTickNs, now_ns + kTickNs / 2);
+      last_pass_ns = now_ns;
     }
   }
 }
@@ -174,7 +185,7 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
     // an authentic state of a session that ended lately: say that it ended
     // (each sequence once, increasing: a replayed datagram is not reflected)
     EndedSession* ended = FindEnded(state.session_id);
-    if (ended != nullptr && CheckTag(datagram, ended->key) && state.sequence > ended->last_sequence) {
+    if (ended != nullptr && CheckTag(datagram, ended->tag_key) && state.sequence > ended->last_sequence) {
       ended->last_sequence = state.sequence;
       counters_.ended_session.fetch_add(1, std::memory_order_relaxed);
       std::memcpy(&ended->peer, &b.in_peer[index], message.msg_hdr.msg_namelen);
@@ -186,13 +197,13 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
       command.avatar_W = state.p_WD;
       command.p_command_W = state.p_WD;
       command.flags = ended->flags;
-      return QueueDatagram(command, ended->key, ended->peer, message.msg_hdr.msg_namelen, reply);
+      return QueueDatagram(command, ended->tag_key, ended->peer, message.msg_hdr.msg_namelen, reply);
     }
     counters_.unknown_session.fetch_add(1, std::memory_order_relaxed);
     return false;
   }
   SessionSlot& slot = sessions_.slot(slot_index);
-  if (!CheckTag(datagram, slot.key)) {
+  if (!CheckTag(datagram, slot.PreparedKey())) {
     counters_.bad_tag.fetch_add(1, std::memory_order_relaxed);
     ++slot.telemetry.bad_tag;
     PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
@@ -221,6 +232,7 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
   slot.last_state_ns = now_ns;
   slot.last_send_ns = send_ns;
   slot.next_silent_tick_ns = now_ns + slot.period_ns + slot.period_ns / 2;
+  next_pass_ns_ = std::min(next_pass_ns_, slot.next_silent_tick_ns);
   slot.ramp_done = false;
   slot.state.store(SlotState::kActive, std::memory_order_release);
 
@@ -249,53 +261,65 @@ void RealtimeChannel::TickSilentSessions(int64_t now_ns) {
   int replies = 0;
   const scene::SceneSnapshot& scene = publisher_.Acquire(reader_);
   const int used_slots = sessions_.used_slots();
+  // the next pass: when the first live session is due, at the latest kIdlePassNs from now
+  next_pass_ns_ = now_ns + kIdlePassNs;
   for (int i = 0; i < used_slots; ++i) {
     SessionSlot& slot = sessions_.slot(i);
     const SlotState state = slot.state.load(std::memory_order_acquire);
     if (!IsLive(state)) continue;
-
-    // Closed by the control thread: hand the slot back.
-    if (slot.close_requested.load(std::memory_order_acquire)) {
-      RememberEnded(slot, v1::COMMAND_FLAGS_SESSION_CLOSED);
-      PublishTelemetry(slot, SlotState::kClosed);
-      slot.state.store(SlotState::kClosed, std::memory_order_release);
-      continue;
-    }
-    // Silent for the whole timeout (or never heard from): reclaimed.
-    const int64_t last_ns = state == SlotState::kWaiting ? slot.opened_ns : slot.last_state_ns;
-    if (now_ns - last_ns >= slot.timeout_ns) {
-      counters_.sessions_timed_out.fetch_add(1, std::memory_order_relaxed);
-      RememberEnded(slot, v1::COMMAND_FLAGS_SESSION_TIMED_OUT);
-      PublishTelemetry(slot, SlotState::kTimedOut);
-      slot.state.store(SlotState::kTimedOut, std::memory_order_release);
-      continue;
-    }
-    if (state == SlotState::kWaiting || now_ns < slot.next_silent_tick_ns) continue;
-
-    // A state is late: tick on the last one, so the watchdog counts the silence.
-    slot.next_silent_tick_ns += slot.period_ns;
-    slot.last_input.fresh = false;
-    const force::TickOutput output = slot.render->Tick(scene, slot.last_input, NsToSeconds(slot.period_ns));
-    const auto& control = slot.render->settings().control;
-    const bool watchdog_tripped =
-        NsToSeconds(now_ns - slot.last_state_ns) >= control.watchdog_timeout_s;
-    if (watchdog_tripped && state == SlotState::kActive) {
-      slot.state.store(SlotState::kRamping, std::memory_order_release);
-    }
-    // Once the watchdog ramps, tell the device, until the force is zero (nothing to
-    // tell a device whose last command was already zero).
-    if (watchdog_tripped && !slot.ramp_done) {
-      const bool nothing_to_ramp = output.f_W.isZero(0) && slot.telemetry.f_W.isZero(0);
-      if (!nothing_to_ramp &&
-          QueueCommand(slot, output, 0, 0, scene.version(), v1::COMMAND_FLAGS_WATCHDOG, replies)) {
-        ++replies;
-      }
-      slot.ramp_done = output.f_W.isZero(0);
-    }
-    PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
+    if (HousekeepSession(slot, state, now_ns, scene, replies)) ++replies;
+    const SlotState after = slot.state.load(std::memory_order_relaxed);
+    if (IsLive(after)) next_pass_ns_ = std::min(next_pass_ns_, NextDueNs(slot, after));
   }
   publisher_.Release(reader_);
   SendReplies(replies);
+}
+
+int64_t RealtimeChannel::NextDueNs(const SessionSlot& slot, SlotState state) {
+  // its timeout, and (once it has sent a state) its next silent tick
+  if (state == SlotState::kWaiting) return slot.opened_ns + slot.timeout_ns;
+  return std::min(slot.last_state_ns + slot.timeout_ns, slot.next_silent_tick_ns);
+}
+
+bool RealtimeChannel::HousekeepSession(SessionSlot& slot, SlotState state, int64_t now_ns,
+                                       const scene::SceneSnapshot& scene, int reply) {
+  // Closed by the control thread: hand the slot back.
+  if (slot.close_requested.load(std::memory_order_acquire)) {
+    RememberEnded(slot, v1::COMMAND_FLAGS_SESSION_CLOSED);
+    PublishTelemetry(slot, SlotState::kClosed);
+    slot.state.store(SlotState::kClosed, std::memory_order_release);
+    return false;
+  }
+  // Silent for the whole timeout (or never heard from): reclaimed.
+  const int64_t last_ns = state == SlotState::kWaiting ? slot.opened_ns : slot.last_state_ns;
+  if (now_ns - last_ns >= slot.timeout_ns) {
+    counters_.sessions_timed_out.fetch_add(1, std::memory_order_relaxed);
+    RememberEnded(slot, v1::COMMAND_FLAGS_SESSION_TIMED_OUT);
+    PublishTelemetry(slot, SlotState::kTimedOut);
+    slot.state.store(SlotState::kTimedOut, std::memory_order_release);
+    return false;
+  }
+  if (state == SlotState::kWaiting || now_ns < slot.next_silent_tick_ns) return false;
+
+  // A state is late: tick on the last one, so the watchdog counts the silence.
+  slot.next_silent_tick_ns += slot.period_ns;
+  slot.last_input.fresh = false;
+  const force::TickOutput output = slot.render->Tick(scene, slot.last_input, NsToSeconds(slot.period_ns));
+  const auto& control = slot.render->settings().control;
+  const bool watchdog_tripped = NsToSeconds(now_ns - slot.last_state_ns) >= control.watchdog_timeout_s;
+  if (watchdog_tripped && state == SlotState::kActive) {
+    slot.state.store(SlotState::kRamping, std::memory_order_release);
+  }
+  // Once the watchdog ramps, tell the device, until the force is zero (nothing to
+  // tell a device whose last command was already zero).
+  bool queued = false;
+  if (watchdog_tripped && !slot.ramp_done) {
+    const bool nothing_to_ramp = output.f_W.isZero(0) && slot.telemetry.f_W.isZero(0);
+    queued = !nothing_to_ramp && QueueCommand(slot, output, 0, 0, scene.version(), v1::COMMAND_FLAGS_WATCHDOG, reply);
+    slot.ramp_done = output.f_W.isZero(0);
+  }
+  PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
+  return queued;
 }
 
 bool RealtimeChannel::QueueCommand(SessionSlot& slot, const force::TickOutput& output, uint64_t sequence,
@@ -320,12 +344,12 @@ bool RealtimeChannel::QueueCommand(SessionSlot& slot, const force::TickOutput& o
   telemetry.touched_object = output.touched_object;
   telemetry.scene_version = scene_version;
 
-  if (!QueueDatagram(command, slot.key, slot.peer, slot.peer_size, reply)) return false;
+  if (!QueueDatagram(command, slot.PreparedKey(), slot.peer, slot.peer_size, reply)) return false;
   ++telemetry.commands_sent;
   return true;
 }
 
-bool RealtimeChannel::QueueDatagram(const DeviceCommandSample& command, const SessionKey& key,
+bool RealtimeChannel::QueueDatagram(const DeviceCommandSample& command, const TagKey& key,
                                     const sockaddr_storage& peer, socklen_t peer_size, int reply) {
   Batch& b = *batch_;
   if (reply >= static_cast<int>(b.out_msgs.size()) || peer_size == 0) return false;
@@ -341,11 +365,11 @@ bool RealtimeChannel::QueueDatagram(const DeviceCommandSample& command, const Se
   return true;
 }
 
-void RealtimeChannel::RememberEnded(const SessionSlot& slot, uint32_t flags) {
+void RealtimeChannel::RememberEnded(SessionSlot& slot, uint32_t flags) {
   EndedSession& ended = ended_[next_ended_];
   next_ended_ = (next_ended_ + 1) % kEndedRemembered;
   ended.id = slot.id;
-  ended.key = slot.key;
+  ended.tag_key = slot.PreparedKey();
   ended.flags = flags;
   ended.peer = slot.peer;
   ended.last_sequence = slot.replay.newest();

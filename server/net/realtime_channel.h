@@ -1,8 +1,8 @@
 #pragma once
 // The realtime channel: one UDP socket and the thread that renders every session.
 //
-// Theory of operation. The thread waits (ppoll) for datagrams or the next millisecond,
-// whichever comes first, then:
+// Theory of operation. The thread waits (ppoll) for datagrams or the housekeeping pass
+// (4), whichever comes first, then:
 //   1. receives every queued datagram in one recvmmsg batch;
 //   2. for each: size -> parse -> session lookup -> tag -> replay window; a datagram that
 //      fails a step is counted under that step's name and dropped; a good one is
@@ -11,9 +11,16 @@
 //      OVERRUN, so no session's tick can hold up the others for long) and its command
 //      joins the reply batch;
 //   3. sends the replies in one sendmmsg;
-//   4. each millisecond, ticks sessions whose states stopped: the watchdog ramps their
-//      force down (sent to the last address, flagged), and a session silent for its
-//      timeout is handed back to the control thread as kTimedOut.
+//   4. housekeeping: ticks sessions whose states stopped, once a period: the watchdog
+//      ramps their force down (sent to the last address, flagged); a session silent for
+//      its timeout is handed back to the control thread as kTimedOut, a closed one as
+//      kClosed. The pass runs when the first session is due (its next silent tick, 1.5
+//      periods after its last state, or its timeout), at most once a millisecond by the
+//      clock and at least every 2 ms; one due within 0.75 ms runs at once after a
+//      batch of datagrams. Sessions that stream in time are never due, so their
+//      datagrams are the thread's only wake-ups.
+// Each session's key is prepared for tagging once (TagKey: the BLAKE2b state after the
+// key's block), on its first datagram.
 // A session that ended (closed or timed out) is remembered, id and key, among the last
 // kEndedRemembered: an authentic state for it is answered with a zero command flagged
 // SESSION_CLOSED or SESSION_TIMED_OUT, so its device can tell the end from packet loss.
@@ -75,24 +82,31 @@ class RealtimeChannel {
   void ReceiveAndReply(int64_t now_ns);
   // Renders one datagram; true when a command was queued in slot `reply` of the batch.
   bool HandleDatagram(int index, int reply, int64_t now_ns, const scene::SceneSnapshot& scene);
+  // The housekeeping pass over every live session; sets next_pass_ns_.
   void TickSilentSessions(int64_t now_ns);
+  // One live session's share of it: hand it back when closed or timed out, else tick
+  // it when its state is late. True when a command was queued in slot `reply`.
+  bool HousekeepSession(SessionSlot& slot, SlotState state, int64_t now_ns, const scene::SceneSnapshot& scene,
+                        int reply);
+  // When a live session in state next needs the pass: its next silent tick or timeout.
+  static int64_t NextDueNs(const SessionSlot& slot, SlotState state);
   // Encodes command into the reply batch at reply for slot's peer; false if it did not fit.
   bool QueueCommand(SessionSlot& slot, const force::TickOutput& output, uint64_t sequence,
                     uint64_t echo_ns, uint64_t scene_version, uint32_t flags, int reply);
   // Encodes command, tagged with key, into the reply batch at reply for peer.
-  bool QueueDatagram(const DeviceCommandSample& command, const SessionKey& key, const sockaddr_storage& peer,
+  bool QueueDatagram(const DeviceCommandSample& command, const TagKey& key, const sockaddr_storage& peer,
                      socklen_t peer_size, int reply);
 
   // A session that ended, as its device's late states are answered.
   struct EndedSession {
     uint32_t id = 0;  // 0: none
-    SessionKey key{};
+    TagKey tag_key;
     uint32_t flags = 0;  // COMMAND_FLAGS_SESSION_CLOSED or _TIMED_OUT
     sockaddr_storage peer{};
     uint64_t last_sequence = 0;  // the highest state answered (or seen while it lived)
   };
   static constexpr int kEndedRemembered = 64;
-  void RememberEnded(const SessionSlot& slot, uint32_t flags);
+  void RememberEnded(SessionSlot& slot, uint32_t flags);
   // The remembered session with this id, or nullptr.
   EndedSession* FindEnded(uint32_t id);
   void SendReplies(int count);
@@ -114,6 +128,8 @@ class RealtimeChannel {
   std::unique_ptr<Batch> batch_;
   std::array<EndedSession, kEndedRemembered> ended_{};
   int next_ended_ = 0;
+  // When the housekeeping pass is next due (at most: a fresh state may bring it forward).
+  int64_t next_pass_ns_ = 0;
 };
 
 }  // namespace hapticd::net

@@ -101,6 +101,16 @@ struct SessionSlot {
   bool ramp_done = false;  // the watchdog's force reached zero; stop sending
   SessionTelemetrySample telemetry;  // the realtime thread's working copy
   SeqLocked<SessionTelemetrySample> published;
+
+  // The realtime thread: key, prepared for tagging; prepared again when the key is not
+  // the one it was made from (the slot holds a new session).
+  const TagKey& PreparedKey() {
+    if (tag_key_.key() != key) tag_key_ = TagKey(key);
+    return tag_key_;
+  }
+
+ private:
+  TagKey tag_key_;
 };
 
 // A session id carries its slot's index in its low kSlotBits bits (the rest is random),
