@@ -108,20 +108,23 @@ double ProcessCpuSeconds() {
 
 void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const ProxyReport& r) {
   fmt::print(
-      "{{\"target\": \"{}\", \"peer\": \"{}\", \"sessions\": {}, \"rate_hz\": {}, \"seconds\": {}, "
+      "{{\"target\": \"{}\", \"peer\": \"{}\", \"sessions\": {}, \"threads\": {}, \"rate_hz\": {}, \"seconds\": {}, "
       "\"realtime_priority\": {}, \"ticks\": {}, "
       "\"rtt_p50_us\": {:.1f}, \"rtt_p90_us\": {:.1f}, \"rtt_p99_us\": {:.1f}, \"rtt_p999_us\": {:.1f}, "
       "\"rtt_max_us\": {:.1f}, \"wire_rtt_p50_us\": {:.1f}, \"wire_rtt_p99_us\": {:.1f}, "
       "\"wire_rtt_p999_us\": {:.1f}, \"lateness_p50_us\": {:.1f}, \"lateness_p99_us\": {:.1f}, "
       "\"lateness_p999_us\": {:.1f}, \"lateness_max_us\": {:.1f}, \"deadline_misses\": {}, \"overruns\": {}, "
+      "\"late_states\": {}, \"send_lateness_p50_us\": {:.1f}, \"send_lateness_p99_us\": {:.1f}, "
+      "\"send_lateness_max_us\": {:.1f}, "
       "\"skipped_ticks\": {}, \"packets_sent\": {}, \"packets_answered\": {}, \"packets_late\": {}, "
       "\"packets_lost\": {}, \"stale\": {}, \"bad\": {}, \"send_errors\": {}, \"max_force_n\": {:.4f}, "
       "\"contacts\": {}, \"watchdog_trips\": {}, \"session_ended\": \"{}\", \"cpu_s\": {:.3f}}}\n",
       fmt::format("{}:{}", options.target.host, options.target.port), options.echo ? "echo" : "hapticd",
-      options.sessions, options.rate_hz, options.seconds, priority, r.ticks, Us(r.rtt.p50), Us(r.rtt.p90), Us(r.rtt.p99),
+      options.sessions, options.threads, options.rate_hz, options.seconds, priority, r.ticks, Us(r.rtt.p50), Us(r.rtt.p90), Us(r.rtt.p99),
       Us(r.rtt.p999), Us(r.rtt.max), Us(r.wire_rtt.p50), Us(r.wire_rtt.p99), Us(r.wire_rtt.p999),
       Us(r.lateness.p50), Us(r.lateness.p99), Us(r.lateness.p999), Us(r.lateness.max), r.deadline_misses,
-      r.overruns, r.skipped_ticks, r.packets.sent, r.packets.answered, r.packets.late, r.packets.lost(),
+      r.overruns, r.late_states, Us(r.send_lateness.p50), Us(r.send_lateness.p99), Us(r.send_lateness.max),
+      r.skipped_ticks, r.packets.sent, r.packets.answered, r.packets.late, r.packets.lost(),
       r.packets.stale, r.packets.bad, r.packets.send_errors, r.max_force_n, r.contacts, r.watchdog_trips,
       r.session_ended, cpu_s);
   std::fflush(stdout);
@@ -173,14 +176,21 @@ int Run(const ProxyOptions& options) {
   loop_options.miss_threshold_ns = std::llround(options.miss_threshold_us * 1000);
   loop_options.hold_s = options.hold_ms / 1000;
   loop_options.ramp_s = options.ramp_ms / 1000;
-  std::vector<ProxyChannel> channels;
-  for (std::size_t i = 0; i < drivers.size(); ++i) channels.push_back({drivers[i].get(), links[i].get()});
-  ProxyLoop loop(loop_options, std::move(channels));
-  // the loop runs on this thread: at real-time priority when granted, else normal (0)
-  const int priority = PrepareRealtimeThread(options.realtime_priority) ? options.realtime_priority : 0;
+  // the sessions dealt out to the loops in turn
+  std::vector<std::vector<ProxyChannel>> shares(options.threads);
+  for (std::size_t i = 0; i < drivers.size(); ++i) shares[i % shares.size()].push_back({drivers[i].get(), links[i].get()});
+  std::vector<std::unique_ptr<ProxyLoop>> loops;
+  std::vector<ProxyLoop*> loop_pointers;
+  for (std::vector<ProxyChannel>& share : shares) {
+    loops.push_back(std::make_unique<ProxyLoop>(loop_options, std::move(share)));
+    loop_pointers.push_back(loops.back().get());
+  }
+  // each loop on a thread of its own: at real-time priority when granted, else normal (0)
+  bool realtime = false;
   const double cpu_before_s = ProcessCpuSeconds();
-  const ProxyReport report = loop.Run(&stop);
+  const ProxyReport report = RunLoops(loop_pointers, options.realtime_priority, &stop, &realtime);
   const double cpu_s = ProcessCpuSeconds() - cpu_before_s;
+  const int priority = realtime ? options.realtime_priority : 0;
 
   for (const uint32_t id : session_ids) client->CloseSession(id);
   PrintReport(options, priority, cpu_s, report);

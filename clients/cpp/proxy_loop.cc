@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <thread>
 
 #include "clients/cpp/tick_schedule.h"
 #include "hapticd/v1/hapticd.pb.h"
@@ -43,7 +44,8 @@ ProxyLoop::ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> 
       readings_(channels_.size()),
       rtt_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()),
       wire_rtt_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()),
-      lateness_(static_cast<std::size_t>(TotalTicks(options))) {
+      lateness_(static_cast<std::size_t>(TotalTicks(options))),
+      send_lateness_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()) {
   // every command's wire round trip, late ones included, goes to one buffer
   for (RealtimeLink* link : links_) link->set_wire_rtt_sink(&wire_rtt_);
   // before any command: no force, and an admittance handle stays where it starts
@@ -56,7 +58,7 @@ ProxyLoop::ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> 
   }
 }
 
-void ProxyLoop::SendStates(double t) {
+void ProxyLoop::SendStates(double t, int64_t deadline_ns, ProxyReport& report) {
   for (std::size_t i = 0; i < channels_.size(); ++i) {
     const DeviceReading reading = channels_[i].driver->Read(t);
     readings_[i] = reading;
@@ -71,7 +73,11 @@ void ProxyLoop::SendStates(double t) {
     if (kinds_[i] == DeviceKind::kImpedance) state.f_held_W = held_W_[i];
     const int64_t rtt_us = links_[i]->rtt_ns() / 1000;
     state.rtt_us = static_cast<uint32_t>(std::clamp<int64_t>(rtt_us, 0, std::numeric_limits<uint32_t>::max()));
-    links_[i]->Send(state);
+    if (!links_[i]->Send(state)) continue;
+    // how late the proxy itself sent it
+    const int64_t late_ns = std::max<int64_t>(0, links_[i]->send_ns() - deadline_ns);
+    send_lateness_.Record(late_ns);
+    report.late_states += late_ns > options_.miss_threshold_ns ? 1 : 0;
   }
 }
 
@@ -114,7 +120,7 @@ ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
     const double t = static_cast<double>(tick) / options_.rate_hz;
 
     // send, wait out the budget from the wake (never past the next deadline), apply
-    SendStates(t);
+    SendStates(t, deadline_ns, report);
     link_set_.AwaitAll(std::min(woke_ns + options_.budget_ns, schedule.DeadlineOf(tick + 1)));
     ApplyCommands(t, report);
 
@@ -145,8 +151,61 @@ ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
   report.rtt = rtt_.Summarize();
   report.wire_rtt = wire_rtt_.Summarize();
   report.lateness = lateness_.Summarize();
-  report.dropped_samples = rtt_.dropped() + wire_rtt_.dropped() + lateness_.dropped();
+  report.send_lateness = send_lateness_.Summarize();
+  report.dropped_samples = rtt_.dropped() + wire_rtt_.dropped() + lateness_.dropped() + send_lateness_.dropped();
   return report;
+}
+
+namespace {
+
+// The percentiles of every loop's samples of one kind together.
+Percentiles MergedPercentiles(std::span<ProxyLoop* const> loops, const LatencyStats& (ProxyLoop::*samples)() const) {
+  std::size_t count = 0;
+  for (const ProxyLoop* loop : loops) count += (loop->*samples)().count();
+  LatencyStats merged(count);
+  for (const ProxyLoop* loop : loops) {
+    for (const int64_t value : (loop->*samples)().samples()) merged.Record(value);
+  }
+  return merged.Summarize();
+}
+
+}  // namespace
+
+ProxyReport RunLoops(std::span<ProxyLoop* const> loops, int priority, const std::atomic<bool>* stop,
+                     bool* realtime) {
+  // every loop on a thread of its own, readied as a fixed-rate thread
+  std::vector<ProxyReport> reports(loops.size());
+  std::vector<uint8_t> granted(loops.size(), 0);
+  std::vector<std::thread> threads;
+  for (std::size_t i = 0; i < loops.size(); ++i) {
+    threads.emplace_back([&, i] {
+      granted[i] = PrepareRealtimeThread(priority) ? 1 : 0;
+      reports[i] = loops[i]->Run(stop);
+    });
+  }
+  for (std::thread& thread : threads) thread.join();
+  if (realtime != nullptr) *realtime = std::all_of(granted.begin(), granted.end(), [](uint8_t g) { return g != 0; });
+
+  // counts add up; percentiles come from all the samples
+  ProxyReport merged;
+  for (const ProxyReport& r : reports) {
+    merged.ticks += r.ticks;
+    merged.skipped_ticks += r.skipped_ticks;
+    merged.deadline_misses += r.deadline_misses;
+    merged.overruns += r.overruns;
+    merged.late_states += r.late_states;
+    merged.packets += r.packets;
+    merged.contacts += r.contacts;
+    merged.max_force_n = std::max(merged.max_force_n, r.max_force_n);
+    merged.watchdog_trips += r.watchdog_trips;
+    merged.dropped_samples += r.dropped_samples;
+    if (merged.session_ended.empty()) merged.session_ended = r.session_ended;
+  }
+  merged.rtt = MergedPercentiles(loops, &ProxyLoop::rtt_samples);
+  merged.wire_rtt = MergedPercentiles(loops, &ProxyLoop::wire_rtt_samples);
+  merged.lateness = MergedPercentiles(loops, &ProxyLoop::lateness_samples);
+  merged.send_lateness = MergedPercentiles(loops, &ProxyLoop::send_lateness_samples);
+  return merged;
 }
 
 }  // namespace hapticd::proxy

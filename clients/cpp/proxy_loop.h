@@ -6,7 +6,9 @@
 //
 //   sleep until the deadline (absolute) ---- woke: lateness = woke - deadline
 //   for each device: Read(t_k), send its state (held force = what it rendered since
-//                    its previous state, rtt_us = its last round trip)
+//                    its previous state, rtt_us = its last round trip); a state sent
+//                    later than the threshold after the deadline is the proxy's own
+//                    miss (a late state), whatever the server does
 //   wait for the commands until woke + budget, at most the next deadline (LinkSet)
 //   for each device: a command that came -> the watchdog takes it; none -> the link
 //                    gives up on it (a later one counts as late); Apply the watchdog's
@@ -17,8 +19,12 @@
 // The simulated time t_k = k / rate_hz follows the schedule, skipped ticks included, so
 // the devices' physics and watchdogs age with the wall clock. Every buffer is sized
 // before the first tick: a tick allocates nothing.
+//
+// Many sessions: RunLoops runs several loops, one thread each, each serving its share of
+// the devices, so that one loop's sends do not make the last device's state late.
 #include <atomic>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -52,9 +58,11 @@ struct ProxyReport {
   int64_t skipped_ticks = 0;   // ticks skipped after stalls
   int64_t deadline_misses = 0;  // ticks that woke late (> threshold) or overran
   int64_t overruns = 0;        // of which: the work ran past the next deadline
+  int64_t late_states = 0;     // states sent more than the miss threshold after their deadline
   Percentiles rtt;             // send -> the loop reading the command (in time only)
   Percentiles wire_rtt;        // send -> the kernel's arrival stamp, late commands included
   Percentiles lateness;        // woke - deadline, per tick
+  Percentiles send_lateness;   // send - deadline, per state sent
   LinkCounters packets;        // every link's, summed
   int64_t contacts = 0;        // answered commands that report contact
   double max_force_n = 0;      // impedance: largest rendered force; admittance: sensed
@@ -75,11 +83,18 @@ class ProxyLoop {
   // each tick; may be null), then waits 20 ms more for late commands. Call once.
   ProxyReport Run(const std::atomic<bool>* stop = nullptr);
 
+  // The run's samples (sorted once Run returned), in ns.
+  const LatencyStats& rtt_samples() const { return rtt_; }
+  const LatencyStats& wire_rtt_samples() const { return wire_rtt_; }
+  const LatencyStats& lateness_samples() const { return lateness_; }
+  const LatencyStats& send_lateness_samples() const { return send_lateness_; }
+
  private:
   // The ended flags any link has seen (0: every session lives).
   uint32_t EndedFlags() const;
-  // The tick's states: read every device and send.
-  void SendStates(double t);
+  // The tick's states: read every device and send; counts the states sent later than
+  // the threshold after deadline_ns.
+  void SendStates(double t, int64_t deadline_ns, ProxyReport& report);
   // The tick's outputs: take the commands that came, apply what the watchdogs say.
   void ApplyCommands(double t, ProxyReport& report);
 
@@ -94,6 +109,14 @@ class ProxyLoop {
   LatencyStats rtt_;
   LatencyStats wire_rtt_;
   LatencyStats lateness_;
+  LatencyStats send_lateness_;
 };
+
+// Runs the loops at once, each on a thread of its own readied by PrepareRealtimeThread
+// (priority), and merges their reports: counts summed (ticks too), percentiles over every
+// loop's samples, the first session end seen. *realtime: whether every thread was granted
+// SCHED_FIFO. loops non-empty; each is run once.
+ProxyReport RunLoops(std::span<ProxyLoop* const> loops, int priority, const std::atomic<bool>* stop,
+                     bool* realtime);
 
 }  // namespace hapticd::proxy

@@ -12,15 +12,17 @@ constexpr std::string_view kUsage = R"(usage: hapticd-proxy (--server HOST:PORT 
 A haptic device proxy: a 1 kHz loop (absolute-deadline sleeps) that streams a simulated
 device's state to hapticd over UDP and renders the commands that come back. Prints one
 JSON line: round-trip and deadline-lateness percentiles (us), packet counters, the
-largest force and the ticks in contact.
+largest force, the ticks in contact, and the proxy's own misses (states it sent later
+than the miss threshold after their tick's deadline).
 
   --server HOST:PORT   hapticd's control endpoint
   --echo HOST:PORT     a plain UDP echo instead (the latency baseline): same loop, same
                        datagrams, no rendering
   --seconds N          length of the run, s (default 5)
   --rate-hz R          the loop's rate (default 1000, at most 10000)
-  --sessions N         devices served by the one loop, one session and socket each
-                       (default 1)
+  --sessions N         devices served, one session and socket each (default 1)
+  --threads T          loops serving them, one thread each, the sessions dealt out in
+                       turn (default 1; at most --sessions and 64)
   --mode M             impedance (default) or admittance
   --path P             what the simulated hand does: stroke (default: press into the
                        floor, slide into the box's side, lift; 2 s a cycle), still (held
@@ -28,7 +30,8 @@ largest force and the ticks in contact.
                        "t,x,y,z;t,x,y,z;..." (a path of its own, s and m)
   --max-force N        the device's force limit, N (default 10)
   --budget-us U        how long a tick waits for its commands (default 500)
-  --miss-threshold-us U  a tick waking later than this counts as a deadline miss
+  --miss-threshold-us U  a tick waking later than this counts as a deadline miss, a
+                       state sent later than this after its deadline as a late state
                        (default 100)
   --hold-ms M          device watchdog: hold the last command this long (default 50),
   --ramp-ms M          then ramp its force to zero over this long (default 100)
@@ -36,7 +39,7 @@ largest force and the ticks in contact.
   --tls-ca FILE        speak TLS to the server, trusting the certificates in this PEM
                        file (the server requires TLS off loopback)
   --access-token-file FILE  its first line is the server's access token (Hello)
-  --realtime-priority N  SCHED_FIFO priority of the loop (default 20, as hapticd's
+  --realtime-priority N  SCHED_FIFO priority of the loops (default 20, as hapticd's
                        realtime thread; 0: normal scheduling); without CAP_SYS_NICE the
                        loop runs at normal priority and the report says so
   --help               this text
@@ -45,8 +48,9 @@ Exit status: 0 after a run (its report printed, also when SIGINT or SIGTERM cut 
 short); 1 when the server cannot be reached or refuses the session; 2 for bad options.
 )";
 
-// The most samples the loop may buffer (ticks x sessions): 16 bytes each.
+// The most samples the loop may buffer (ticks x sessions): 24 bytes each.
 constexpr double kMaxSamples = 20e6;
+constexpr int kMaxThreads = 64;
 
 double ParseNumber(std::string_view option, std::string_view text) {
   double value = 0;
@@ -142,6 +146,10 @@ ProxyOptions ParseProxyOptions(std::span<const std::string_view> args) {
       const double sessions = ParseInRange(name, value, 1, 1000);
       if (sessions != std::floor(sessions)) throw OptionsError(fmt::format("--sessions is {}; it must be an integer", value));
       options.sessions = static_cast<int>(sessions);
+    } else if (name == "--threads") {
+      const double threads = ParseInRange(name, value, 1, kMaxThreads);
+      if (threads != std::floor(threads)) throw OptionsError(fmt::format("--threads is {}; it must be an integer", value));
+      options.threads = static_cast<int>(threads);
     } else if (name == "--mode") {
       if (value == "impedance") {
         options.mode = DeviceKind::kImpedance;
@@ -189,6 +197,11 @@ ProxyOptions ParseProxyOptions(std::span<const std::string_view> args) {
   }
   if (options.help) return options;
   if (!have_target) throw OptionsError("give --server HOST:PORT or --echo HOST:PORT (see --help)");
+  if (options.threads > options.sessions) {
+    throw OptionsError(fmt::format("--threads is {}; it must be at most --sessions ({}): a loop serves one "
+                                   "session at least",
+                                   options.threads, options.sessions));
+  }
   // the loop buffers every tick's samples up front
   const double samples = options.seconds * options.rate_hz * options.sessions;
   if (samples > kMaxSamples) {

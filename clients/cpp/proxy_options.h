@@ -33,6 +33,7 @@ struct ProxyOptions {
   double seconds = 5;
   double rate_hz = 1000;
   int sessions = 1;
+  int threads = 1;  // loops (threads) serving the sessions, in [1, sessions]
   DeviceKind mode = DeviceKind::kImpedance;
   PathKind path = PathKind::kStroke;
   std::vector<sim::PathPoint> custom_path;  // kCustom only

@@ -71,6 +71,8 @@ class RealtimeLink {
   // Sends state as the next sequence (from 1), stamped now: fills its session_id,
   // sequence and send_time_ns (CLOCK_MONOTONIC). False when the send failed (counted).
   bool Send(net::DeviceStateSample& state);
+  // The last state's send stamp, CLOCK_MONOTONIC ns (0 before the first).
+  int64_t send_ns() const { return send_mono_ns_; }
 
   // Reads queued datagrams without waiting, up to the one that answers the last state
   // (every queued one when it was answered already). True once the last state's command
@@ -106,7 +108,7 @@ class RealtimeLink {
   bool Parse(std::span<const uint8_t> datagram);
 
   uint32_t session_id_;
-  net::SessionKey key_;
+  net::TagKey key_;  // prepared once: each tag is one compression
   LinkPeer peer_;
   int fd_ = -1;
   net::DatagramCodec codec_;

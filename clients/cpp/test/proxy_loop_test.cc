@@ -7,7 +7,9 @@
 
 #include <atomic>
 #include <functional>
+#include <memory>
 #include <thread>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -162,6 +164,63 @@ TEST(ProxyLoop, ASilentServerTripsTheWatchdog) {
   EXPECT_EQ(report.rtt.count, 0u);
   EXPECT_EQ(report.watchdog_trips, 1u);
   EXPECT_EQ(device.last_output().f_W, Vector3::Zero());
+}
+
+// Several loops on threads of their own: the merged report counts every loop's states,
+// ticks and samples, and each state's send lateness is recorded once.
+TEST(ProxyLoop, LoopsOnThreadsMergeTheirReports) {
+  Responder echo([](std::span<const uint8_t> in, std::span<uint8_t> out) {
+    std::copy(in.begin(), in.end(), out.begin());
+    return in.size();
+  });
+  std::vector<std::unique_ptr<HeldDeviceDriver>> devices;
+  std::vector<std::unique_ptr<RealtimeLink>> links;
+  std::vector<std::unique_ptr<ProxyLoop>> loops;
+  std::vector<ProxyLoop*> pointers;
+  for (uint32_t i = 0; i < 3; ++i) {
+    std::vector<ProxyChannel> share;
+    for (int j = 0; j <= static_cast<int>(i); ++j) {
+      devices.push_back(std::make_unique<HeldDeviceDriver>(HeldCaps()));
+      links.push_back(std::make_unique<RealtimeLink>(10 * i + j + 1, TestKey(), echo.endpoint(), LinkPeer::kEcho));
+      share.push_back({devices.back().get(), links.back().get()});
+    }
+    loops.push_back(std::make_unique<ProxyLoop>(ShortRun(0.05), std::move(share)));
+    pointers.push_back(loops.back().get());
+  }
+  bool realtime = true;
+  const ProxyReport report = RunLoops(pointers, 0, nullptr, &realtime);
+
+  EXPECT_FALSE(realtime);  // priority 0: normal scheduling asked for
+  int64_t states = 0;
+  for (const ProxyLoop* loop : pointers) states += static_cast<int64_t>(loop->send_lateness_samples().count());
+  EXPECT_EQ(report.ticks + report.skipped_ticks, 3 * 50);
+  EXPECT_EQ(report.packets.sent, static_cast<uint64_t>(states));
+  EXPECT_EQ(report.send_lateness.count, static_cast<std::size_t>(states));
+  EXPECT_EQ(report.lateness.count, static_cast<std::size_t>(report.ticks));
+  EXPECT_EQ(report.rtt.count, report.packets.answered);
+  EXPECT_EQ(report.packets.lost(), 0u);
+  EXPECT_LE(report.late_states, states);
+  EXPECT_LE(report.send_lateness.p50, report.send_lateness.max);
+}
+
+// A state counts as late when it is sent more than the threshold after its deadline:
+// with a threshold of zero every state sent after its deadline is late, with a huge
+// one none is.
+TEST(ProxyLoop, LateStatesFollowTheThreshold) {
+  Responder echo([](std::span<const uint8_t> in, std::span<uint8_t> out) {
+    std::copy(in.begin(), in.end(), out.begin());
+    return in.size();
+  });
+  for (const int64_t threshold_ns : {int64_t{0}, int64_t{1'000'000'000}}) {
+    HeldDeviceDriver device(HeldCaps());
+    RealtimeLink link(kSession, TestKey(), echo.endpoint(), LinkPeer::kEcho);
+    ProxyLoopOptions options = ShortRun(0.03);
+    options.miss_threshold_ns = threshold_ns;
+    ProxyLoop loop(options, {{&device, &link}});
+    const ProxyReport report = loop.Run();
+    // the send stamp is taken after the wake, which is at or after the deadline
+    EXPECT_EQ(report.late_states, threshold_ns == 0 ? static_cast<int64_t>(report.packets.sent) : 0);
+  }
 }
 
 // A stop flag already set: no tick runs.

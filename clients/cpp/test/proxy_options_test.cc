@@ -27,6 +27,7 @@ TEST(ProxyOptions, Defaults) {
   EXPECT_EQ(options.seconds, 5);
   EXPECT_EQ(options.rate_hz, 1000);
   EXPECT_EQ(options.sessions, 1);
+  EXPECT_EQ(options.threads, 1);
   EXPECT_EQ(options.mode, DeviceKind::kImpedance);
   EXPECT_EQ(options.path, PathKind::kStroke);
   EXPECT_EQ(options.realtime_priority, 20);
@@ -34,14 +35,15 @@ TEST(ProxyOptions, Defaults) {
 
 TEST(ProxyOptions, ReadsEveryOption) {
   const ProxyOptions options =
-      Parse({"--echo=localhost:9", "--seconds", "2.5", "--rate-hz", "500", "--sessions", "25", "--mode", "admittance",
-             "--path", "press", "--max-force=4", "--budget-us", "300", "--miss-threshold-us", "50", "--hold-ms", "20",
+      Parse({"--echo=localhost:9", "--seconds", "2.5", "--rate-hz", "500", "--sessions", "25", "--threads", "2",
+             "--mode", "admittance", "--path", "press", "--max-force=4", "--budget-us", "300", "--miss-threshold-us", "50", "--hold-ms", "20",
              "--ramp-ms", "0", "--timeout-s", "1", "--realtime-priority", "0"});
   EXPECT_TRUE(options.echo);
   EXPECT_EQ(options.target.port, 9);
   EXPECT_EQ(options.seconds, 2.5);
   EXPECT_EQ(options.rate_hz, 500);
   EXPECT_EQ(options.sessions, 25);
+  EXPECT_EQ(options.threads, 2);
   EXPECT_EQ(options.mode, DeviceKind::kAdmittance);
   EXPECT_EQ(options.path, PathKind::kPress);
   EXPECT_EQ(options.max_force, 4);
@@ -59,6 +61,9 @@ TEST(ProxyOptions, BadValuesAreNamed) {
   EXPECT_EQ(ErrorOf({"--server", "127.0.0.1:7460", "--rate-hz", "0"}), "--rate-hz is 0; it must be in [1, 10000]");
   EXPECT_EQ(ErrorOf({"--server", "127.0.0.1:7460", "--seconds", "abc"}), "--seconds is \"abc\"; it must be a number");
   EXPECT_EQ(ErrorOf({"--server", "127.0.0.1:7460", "--sessions", "2.5"}), "--sessions is 2.5; it must be an integer");
+  EXPECT_EQ(ErrorOf({"--server", "127.0.0.1:7460", "--threads", "0"}), "--threads is 0; it must be in [1, 64]");
+  EXPECT_EQ(ErrorOf({"--server", "127.0.0.1:7460", "--sessions", "3", "--threads", "4"}),
+            "--threads is 4; it must be at most --sessions (3): a loop serves one session at least");
   EXPECT_EQ(ErrorOf({"--server", "127.0.0.1:7460", "--mode", "rigid"}),
             "--mode is \"rigid\"; it must be impedance or admittance");
   EXPECT_EQ(ErrorOf({"--server", "127.0.0.1"}), "--server \"127.0.0.1\" is not HOST:PORT: there is no port");
