@@ -5,9 +5,13 @@
 // The device slides around the object's equator pressed 1 mm in, at 0.2 m/s, so every
 // tick is in contact (the expensive case). One thread; every tick is timed on its own
 // with the steady clock (about 20 ns of overhead, included), and its work units counted
-// (geometry::WorkMeter: what --tick-work-budget bounds).
+// (geometry::WorkMeter: what --tick-work-budget bounds). The proxy methods run twice,
+// taking turns in the same run: gathering a neighbourhood once a tick (as the server does)
+// and asking the whole scene each query (the direct path, as before issue 12).
 //
-//   render_tick_percentiles [--ticks N] [--quick]   -> a Markdown table on stdout
+//   render_tick_percentiles [--ticks N] [--quick] [--triangles N] [--method NAME] [--gathered-only]
+//     -> a Markdown table on stdout (--triangles, --method: only that object (0 for the
+//        primitives) or method; --gathered-only: no direct sessions; for profiling)
 
 #include <algorithm>
 #include <chrono>
@@ -16,6 +20,7 @@
 #include <cstring>
 #include <memory>
 #include <random>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -85,42 +90,89 @@ struct Method {
 struct Percentiles {
   double p50, p99, p999, max;
   int64_t work_p999, work_max;  // work units per tick (geometry::WorkMeter)
+  int triangles_p50, triangles_max;  // triangles gathered per tick
+  double local;                      // share of the queries answered by the neighbourhood
 };
 
-Percentiles Measure(const scene::SceneSnapshot& scene, const Method& m, int ticks) {
-  force::SessionSettings settings;
-  settings.avatar.type = m.radius > 0 ? force::AvatarType::kSphere : force::AvatarType::kPoint;
-  settings.avatar.radius = m.radius;
-  settings.avatar.method = m.method;
-  settings.device.max_force = 100;
-  // a budget no tick here reaches, so that every tick is measured whole
-  force::RenderSession session(settings, int64_t{1} << 40);
-  const double orbit = kRadius + m.radius - kPress;
-  const double omega = kSpeed / orbit;
-  session.Reset(Vector3(orbit + 0.01, 0, 0));
-  std::vector<double> samples(ticks);
-  std::vector<int64_t> work(ticks);
-  const int warmup = ticks / 10;
-  for (int tick = -warmup; tick < ticks; ++tick) {
-    const double t = 0.001 * (tick + warmup);
-    force::DeviceInput input;
-    // slightly tilted equator, so the path crosses mesh edges at every angle
-    input.p_WD = orbit * Vector3(std::cos(omega * t), std::sin(omega * t) * 0.96, std::sin(omega * t) * 0.28);
-    input.v_WD = kSpeed * Vector3(-std::sin(omega * t), std::cos(omega * t) * 0.96, std::cos(omega * t) * 0.28);
-    const auto begin = std::chrono::steady_clock::now();
-    const force::TickOutput out = session.Tick(scene, input, 0.001);
-    const auto end = std::chrono::steady_clock::now();
-    asm volatile("" : : "g"(&out) : "memory");
-    if (tick >= 0) {
-      samples[tick] = std::chrono::duration<double, std::micro>(end - begin).count();
-      work[tick] = session.last_tick_work();
-    }
+// One session sliding around the object, ticked in blocks (so that two sessions can
+// take turns in one run) and timed tick by tick.
+class Slider {
+ public:
+  Slider(const scene::SceneSnapshot& scene, const Method& m, const force::NeighbourhoodCapacity& capacity)
+      : scene_(scene), session_(Settings(m), int64_t{1} << 40, capacity), orbit_(kRadius + m.radius - kPress) {
+    // a budget no tick here reaches, so that every tick is measured whole
+    session_.Reset(Vector3(orbit_ + 0.01, 0, 0));
   }
-  std::sort(samples.begin(), samples.end());
-  std::sort(work.begin(), work.end());
-  const auto index = [&](double q) { return std::min<size_t>(samples.size() - 1, q * samples.size()); };
-  return {samples[index(0.5)], samples[index(0.99)], samples[index(0.999)], samples.back(), work[index(0.999)],
-          work.back()};
+
+  // count ticks; measured ones are kept
+  void Run(int count, bool measured) {
+    const double omega = kSpeed / orbit_;
+    for (int k = 0; k < count; ++k, ++tick_) {
+      const double t = 0.001 * tick_;
+      force::DeviceInput input;
+      // slightly tilted equator, so the path crosses mesh edges at every angle
+      input.p_WD = orbit_ * Vector3(std::cos(omega * t), std::sin(omega * t) * 0.96, std::sin(omega * t) * 0.28);
+      input.v_WD = kSpeed * Vector3(-std::sin(omega * t), std::cos(omega * t) * 0.96, std::cos(omega * t) * 0.28);
+      const auto begin = std::chrono::steady_clock::now();
+      const force::TickOutput out = session_.Tick(scene_, input, 0.001);
+      const auto end = std::chrono::steady_clock::now();
+      asm volatile("" : : "g"(&out) : "memory");
+      if (!measured) continue;
+      samples_.push_back(std::chrono::duration<double, std::micro>(end - begin).count());
+      work_.push_back(session_.last_tick_work());
+      triangles_.push_back(session_.neighbourhood().num_triangles());
+    }
+    if (!measured) local_before_ = session_.neighbourhood().local_answers(), scene_before_ = session_.neighbourhood().scene_answers();
+  }
+
+  Percentiles Result() {
+    std::sort(samples_.begin(), samples_.end());
+    std::sort(work_.begin(), work_.end());
+    std::sort(triangles_.begin(), triangles_.end());
+    const auto index = [&](double q) { return std::min<size_t>(samples_.size() - 1, q * samples_.size()); };
+    const double local = static_cast<double>(session_.neighbourhood().local_answers() - local_before_);
+    const double asked = local + static_cast<double>(session_.neighbourhood().scene_answers() - scene_before_);
+    return {samples_[index(0.5)],   samples_[index(0.99)], samples_[index(0.999)], samples_.back(),
+            work_[index(0.999)],    work_.back(),          triangles_[index(0.5)], triangles_.back(),
+            asked > 0 ? local / asked : 0};
+  }
+
+ private:
+  static force::SessionSettings Settings(const Method& m) {
+    force::SessionSettings settings;
+    settings.avatar.type = m.radius > 0 ? force::AvatarType::kSphere : force::AvatarType::kPoint;
+    settings.avatar.radius = m.radius;
+    settings.avatar.method = m.method;
+    settings.device.max_force = 100;
+    return settings;
+  }
+
+  const scene::SceneSnapshot& scene_;
+  force::RenderSession session_;
+  double orbit_;
+  int tick_ = 0;
+  std::vector<double> samples_;
+  std::vector<int64_t> work_;
+  std::vector<int> triangles_;
+  int64_t local_before_ = 0, scene_before_ = 0;
+};
+
+// A session that gathers its neighbourhood (as the server's do) and one that asks the
+// whole scene every query (the direct path), taking turns in blocks of a thousand ticks
+// so that the machine's load falls on both alike. Penalty never gathers: one session.
+std::pair<Percentiles, Percentiles> Measure(const scene::SceneSnapshot& scene, const Method& m, int ticks,
+                                            bool gathered_only) {
+  constexpr int kBlock = 1000;
+  Slider gathered(scene, m, {});
+  Slider direct(scene, m, {0, 0});
+  const bool both = m.method != force::ForceMethod::kPenalty && !gathered_only;
+  gathered.Run(ticks / 10, false);
+  if (both) direct.Run(ticks / 10, false);
+  for (int done = 0; done < ticks; done += kBlock) {
+    gathered.Run(std::min(kBlock, ticks - done), true);
+    if (both) direct.Run(std::min(kBlock, ticks - done), true);
+  }
+  return {gathered.Result(), both ? direct.Result() : Percentiles{}};
 }
 
 }  // namespace
@@ -128,13 +180,22 @@ Percentiles Measure(const scene::SceneSnapshot& scene, const Method& m, int tick
 int main(int argc, char** argv) {
   int ticks = 50000;
   bool quick = false;
+  int only_triangles = -1;           // keep only the target with this many triangles (0: primitives)
+  const char* only_method = nullptr;  // keep only this method
+  bool gathered_only = false;         // no direct sessions (for profiling the gathered one)
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--ticks") && i + 1 < argc) {
       ticks = std::max(1000, std::atoi(argv[++i]));
     } else if (!std::strcmp(argv[i], "--quick")) {
       quick = true;
+    } else if (!std::strcmp(argv[i], "--triangles") && i + 1 < argc) {
+      only_triangles = std::atoi(argv[++i]);
+    } else if (!std::strcmp(argv[i], "--gathered-only")) {
+      gathered_only = true;
+    } else if (!std::strcmp(argv[i], "--method") && i + 1 < argc) {
+      only_method = argv[++i];
     } else {
-      std::fprintf(stderr, "usage: %s [--ticks N] [--quick]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--ticks N] [--quick] [--triangles N] [--method NAME] [--gathered-only]\n", argv[0]);
       return 2;
     }
   }
@@ -145,18 +206,35 @@ int main(int argc, char** argv) {
       {"sphere finger proxy", force::ForceMethod::kFingerProxy, kAvatarRadius},
   };
   std::printf(
-      "| object | triangles | avatar and method | p50 µs | p99 µs | p99.9 µs | max µs | work p99.9 | work max |\n");
-  std::printf("|---|---:|---|---:|---:|---:|---:|---:|---:|\n");
+      "| object | triangles | avatar and method | queries | p50 µs | p99 µs | p99.9 µs | max µs | work p99.9 | work max "
+      "| gathered triangles p50 / max | answered by the neighbourhood |\n");
+  std::printf("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+  const auto row = [](const Target& target, const Method& m, const char* queries, const Percentiles& p,
+                      bool gathers) {
+    std::printf("| %s | %s | %s | %s | %.2f | %.2f | %.2f | %.1f | %lld | %lld |", target.name.c_str(),
+                target.triangles ? std::to_string(target.triangles).c_str() : "-", m.name, queries, p.p50, p.p99,
+                p.p999, p.max, static_cast<long long>(p.work_p999), static_cast<long long>(p.work_max));
+    if (gathers) {
+      std::printf(" %d / %d | %.1f%% |\n", p.triangles_p50, p.triangles_max, 100 * p.local);
+    } else {
+      std::printf(" - | - |\n");
+    }
+    std::fflush(stdout);
+  };
   for (const Target& target : MakeTargets(quick)) {
+    if (only_triangles >= 0 && target.triangles != only_triangles) continue;
     scene::SceneBuilder builder;
     builder.Add(target.spec);
     const auto scene = builder.Build(1);
     for (const Method& m : methods) {
-      const Percentiles p = Measure(*scene, m, ticks);
-      std::printf("| %s | %s | %s | %.2f | %.2f | %.2f | %.1f | %lld | %lld |\n", target.name.c_str(),
-                  target.triangles ? std::to_string(target.triangles).c_str() : "-", m.name, p.p50,
-                  p.p99, p.p999, p.max, static_cast<long long>(p.work_p999), static_cast<long long>(p.work_max));
-      std::fflush(stdout);
+      if (only_method != nullptr && std::strcmp(only_method, m.name)) continue;
+      const auto [gathered, direct] = Measure(*scene, m, ticks, gathered_only);
+      if (m.method == force::ForceMethod::kPenalty || gathered_only) {
+        row(target, m, "one per tick", gathered, false);
+        continue;
+      }
+      row(target, m, "gathered once a tick", gathered, true);
+      row(target, m, "direct (before)", direct, false);
     }
   }
   return 0;

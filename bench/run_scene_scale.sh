@@ -3,14 +3,30 @@
 # what 100 kinematic moves a tick cost, and how an edit's cost grows with the scene
 # (10,000 add_sphere requests to a real server); writes bench/results/scene_scale.md
 # with the machine and the date.
-#   bench/run_scene_scale.sh [--ticks N]
+#   bench/run_scene_scale.sh [--no-edits] [--ticks N]
+# --no-edits: keep the edits' section of the last results instead of rerunning it (it
+# needs the server in build/; the ticks' sections are measured either way).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"
+# HAPTICD_BUILD_DIR: a build directory of one's own (only what this needs is built
+# there); unset, deploy/build.sh builds build/
+build_dir="${HAPTICD_BUILD_DIR:-build}"
 bash deploy/install.sh
-bash deploy/build.sh normal >/dev/null
+if [[ -n "${HAPTICD_BUILD_DIR:-}" ]]; then
+  cmake -S "$repo" -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+  ninja -C "$build_dir" -j "${HAPTICD_JOBS:-$(nproc)}" scene_scale >/dev/null
+else
+  bash deploy/build.sh normal >/dev/null
+fi
 
+edits=1
+if [[ "${1:-}" == "--no-edits" ]]; then
+  edits=0
+  shift
+fi
 out="bench/results/scene_scale.md"
+previous_edits="$(sed -n '/^## Edits through the control channel/,$p' "$out" 2>/dev/null || true)"
 {
   echo "# A render tick in scenes of 10 and 10,000 objects"
   echo
@@ -20,10 +36,17 @@ out="bench/results/scene_scale.md"
   echo "320-triangle meshes, 2-10 cm, 1% of them kinematic) lie in a 4 m cube, none within"
   echo "20 cm of the box. Produced by bench/run_scene_scale.sh."
   echo
-  build/bin/scene_scale "$@"
+  "$build_dir/bin/scene_scale" "$@"
   echo
-  echo "## Edits through the control channel of a real server (bench/scene_edit_scale.py)"
-  echo
-  .venv/bin/python bench/scene_edit_scale.py
-} >"$out"
+  if ((edits)); then
+    echo "## Edits through the control channel of a real server (bench/scene_edit_scale.py)"
+    echo
+    .venv/bin/python bench/scene_edit_scale.py
+  else
+    echo "$previous_edits"
+    echo
+    echo "(The edits' section is the previous run's: this run was made with --no-edits.)"
+  fi
+} >"$out.new"
+mv "$out.new" "$out"
 echo "wrote $out" >&2

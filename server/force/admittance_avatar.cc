@@ -14,8 +14,8 @@ void AdmittanceAvatar::Reset(const Vector3& p_W) {
   scene_version_ = 0;
 }
 
-AvatarForce AdmittanceAvatar::Step(const scene::SceneSnapshot& scene, const Vector3& f_sensed_W,
-                                   double dt) {
+AvatarForce AdmittanceAvatar::Step(const scene::SceneSnapshot& scene, query::Neighbourhood& near,
+                                   const Vector3& f_sensed_W, double dt) {
   AvatarForce out;
   out.f_W = f_sensed_W;
   // semi-implicit mass-damper step: v' = (m v + dt f) / (m + dt b)
@@ -25,10 +25,11 @@ AvatarForce AdmittanceAvatar::Step(const scene::SceneSnapshot& scene, const Vect
   if (speed > max_velocity_) velocity_ *= max_velocity_ / speed;
 
   // move under the scene's constraints; the velocity is what they allowed
-  const Vector3 start =
-      CarryProxy(scene, position_, radius_, dt, scene.version() != scene_version_);
+  // what this tick's queries can reach: the step the velocity takes (and a carry)
+  GatherAlong(scene, near, position_, radius_, dt * velocity_);
+  const Vector3 start = CarryProxy(near, position_, radius_, dt, scene.version() != scene_version_);
   scene_version_ = scene.version();
-  const ProxyMove move = MoveProxy(scene, start, start + dt * velocity_, radius_);
+  const ProxyMove move = MoveProxy(near, start, start + dt * velocity_, radius_);
   velocity_ = (move.position - position_) / dt;
   position_ = move.position;
   out.avatar_W = position_;

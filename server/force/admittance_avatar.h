@@ -12,6 +12,7 @@
 
 #include "server/force/avatar_force.h"
 #include "server/force/session_settings.h"
+#include "server/query/neighbourhood.h"
 #include "server/scene/scene_snapshot.h"
 
 namespace hapticd::force {
@@ -21,9 +22,11 @@ class AdmittanceAvatar {
   // radius >= 0; settings validated by the session; max_velocity (m/s, > 0) caps speed.
   AdmittanceAvatar(double radius, const AdmittanceSettings& settings, double max_velocity);
   void Reset(const Vector3& p_W);
-  // One tick of dt seconds under the sensed force. Real-time safe. f_W in the result
-  // is the sensed force; avatar_W the commanded position.
-  AvatarForce Step(const scene::SceneSnapshot& scene, const Vector3& f_sensed_W, double dt);
+  // One tick of dt seconds under the sensed force, its queries asked of near (gathered
+  // here around the avatar, as ProxyAvatar::Step does). Real-time safe. f_W in the
+  // result is the sensed force; avatar_W the commanded position.
+  AvatarForce Step(const scene::SceneSnapshot& scene, query::Neighbourhood& near, const Vector3& f_sensed_W,
+                   double dt);
   const Vector3& position() const { return position_; }
   const Vector3& velocity() const { return velocity_; }
 

@@ -31,20 +31,27 @@ void ProxyAvatar::Reset(const Vector3& p_W) {
   proxy_ = p_W;
   sliding_ = false;
   scene_version_ = 0;
+  last_motion_.setZero();
 }
 
-AvatarForce ProxyAvatar::Step(const scene::SceneSnapshot& scene, const Vector3& p_WD,
+AvatarForce ProxyAvatar::Step(const scene::SceneSnapshot& scene, query::Neighbourhood& near, const Vector3& p_WD,
                               const Vector3& v_WD, double dt) {
   AvatarForce out;
-  const Vector3 start =
-      CarryProxy(scene, proxy_, radius_, dt, scene.version() != scene_version_);
+  // what this tick's queries can reach: the proxy goes on about as it went last tick,
+  // and no farther than the device is from it
+  const Vector3 proxy_before = proxy_;
+  const double step = last_motion_.norm();
+  const double reach = (p_WD - proxy_).norm();
+  GatherAlong(scene, near, proxy_, radius_, step > reach ? Vector3(last_motion_ * (reach / step)) : last_motion_);
+  const Vector3 start = CarryProxy(near, proxy_, radius_, dt, scene.version() != scene_version_);
   scene_version_ = scene.version();
-  const ProxyMove free_move = MoveProxy(scene, start, p_WD, radius_);
+  const ProxyMove free_move = MoveProxy(near, start, p_WD, radius_);
   out.overflow = free_move.overflow;
   proxy_ = free_move.position;
   out.avatar_W = proxy_;
   if (free_move.num_planes == 0) {
     sliding_ = false;
+    last_motion_ = proxy_ - proxy_before;
     return out;
   }
 
@@ -84,11 +91,12 @@ AvatarForce ProxyAvatar::Step(const scene::SceneSnapshot& scene, const Vector3& 
   sliding_ = sliding;
 
   if (target != free_move.position) {
-    const ProxyMove held = MoveProxy(scene, start, target, radius_);
+    const ProxyMove held = MoveProxy(near, start, target, radius_);
     out.overflow = out.overflow || held.overflow;
     proxy_ = held.position;
     out.avatar_W = proxy_;
   }
+  last_motion_ = proxy_ - proxy_before;
 
   // the coupling spring, and damping along the normal relative to the object
   out.contact = true;

@@ -33,9 +33,11 @@ class ProxyAvatar {
   ProxyAvatar(double radius, bool force_shading);
   // Puts the proxy at p_W (which should be outside every object).
   void Reset(const Vector3& p_W);
-  // One tick of dt seconds: device at p_WD moving at v_WD. Real-time safe.
-  AvatarForce Step(const scene::SceneSnapshot& scene, const Vector3& p_WD, const Vector3& v_WD,
-                   double dt);
+  // One tick of dt seconds: device at p_WD moving at v_WD. The tick's queries are asked
+  // of near, gathered here around the proxy (what it held is replaced; a neighbourhood
+  // of no capacity asks the scene). Real-time safe.
+  AvatarForce Step(const scene::SceneSnapshot& scene, query::Neighbourhood& near, const Vector3& p_WD,
+                   const Vector3& v_WD, double dt);
   const Vector3& proxy() const { return proxy_; }
 
  private:
@@ -44,6 +46,7 @@ class ProxyAvatar {
   Vector3 proxy_ = Vector3::Zero();
   bool sliding_ = false;  // on the dynamic cone (else sticking or free)
   uint64_t scene_version_ = 0;  // the snapshot of the last tick (0: none yet)
+  Vector3 last_motion_ = Vector3::Zero();  // how the proxy moved in the last tick, m
 };
 
 }  // namespace hapticd::force

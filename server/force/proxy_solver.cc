@@ -6,7 +6,6 @@
 
 #include <Eigen/Dense>
 
-#include "server/query/scene_queries.h"
 
 namespace hapticd::force {
 namespace {
@@ -24,6 +23,10 @@ constexpr double kRestingGap = 1e-6;
 constexpr int kMaxPushes = 3;
 // Constraint violations smaller than this (m) count as satisfied.
 constexpr double kFeasibility = 1e-12;
+// What a neighbourhood holds beyond the sphere along the expected motion: this share of
+// the motion's length, and this much more (m).
+constexpr double kGatherMotionMargin = 0.1;
+constexpr double kGatherMargin = 2e-5;
 
 bool Satisfies(const Vector3& x, const ProxyPlane* planes, int num_planes) {
   for (int i = 0; i < num_planes; ++i) {
@@ -97,29 +100,44 @@ Vector3 ProjectOntoPlanes(const Vector3& goal, const ProxyPlane* planes, int num
   return best;
 }
 
-Vector3 CarryProxy(const scene::SceneSnapshot& scene, const Vector3& x, double r, double dt,
-                   bool scene_changed) {
+void GatherAlong(const scene::SceneSnapshot& scene, query::Neighbourhood& near, const Vector3& x, double r,
+                 const Vector3& expected_motion) {
+  const double length = expected_motion.norm();
+  near.Gather(scene, x + 0.5 * expected_motion, r + (0.5 + kGatherMotionMargin) * length + kGatherMargin, r > 0);
+}
+
+Vector3 CarryProxy(const query::Neighbourhood& near, const Vector3& x, double r, double dt, bool scene_changed) {
+  const scene::SceneSnapshot& scene = near.scene();
   if (!x.allFinite()) return x;
   Vector3 carried = x;
   // a proxy resting on (within a micrometre of) a kinematic object moves with it: the
   // first such object in the scene, among those near it
   const bool any_kinematic = !scene.kinematic_objects().empty();
   if (any_kinematic) {
-    const query::SceneContact carrier = query::FindKinematicContact(scene, x, r + kRestingGap);
+    const query::SceneContact carrier = query::FindKinematicContact(near, x, r + kRestingGap);
     if (carrier.object >= 0) carried += dt * scene.object(carrier.object).CalcPointVelocity(carrier.point_W);
   }
   // an object that moved into the proxy (or appeared around it) pushes it out
   if (!any_kinematic && !scene_changed) return carried;
   for (int push = 0; push < kMaxPushes; ++push) {
-    const query::SceneContact inside = query::FindDeepestContact(scene, carried, r, 0);
+    const query::SceneContact inside = query::FindDeepestContact(near, carried, r, 0);
     if (inside.object < 0 || inside.depth <= kSkin) break;
     carried += (inside.depth + kSkin) * inside.normal_W;
   }
   return carried;
 }
 
+Vector3 CarryProxy(const scene::SceneSnapshot& scene, const Vector3& x, double r, double dt,
+                   bool scene_changed) {
+  return CarryProxy(query::Neighbourhood(scene), x, r, dt, scene_changed);
+}
+
 ProxyMove MoveProxy(const scene::SceneSnapshot& scene, const Vector3& start, const Vector3& goal,
                     double r) {
+  return MoveProxy(query::Neighbourhood(scene), start, goal, r);
+}
+
+ProxyMove MoveProxy(const query::Neighbourhood& near, const Vector3& start, const Vector3& goal, double r) {
   ProxyMove move;
   move.position = start;
   if (!start.allFinite() || !goal.allFinite() || !(r >= 0)) return move;
@@ -128,7 +146,7 @@ ProxyMove MoveProxy(const scene::SceneSnapshot& scene, const Vector3& start, con
         ProjectOntoPlanes(goal, move.planes.data(), move.num_planes);
     const Vector3 motion = target - move.position;
     if (motion.norm() <= kArrived) return move;
-    const query::SceneSweep sweep = query::SweepSphereScene(scene, move.position, target, r);
+    const query::SceneSweep sweep = query::SweepSphereScene(near, move.position, target, r);
     if (!sweep.hit) {
       move.position = target;
       return move;

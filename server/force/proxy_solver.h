@@ -15,6 +15,7 @@
 
 #include <array>
 
+#include "server/query/neighbourhood.h"
 #include "server/scene/scene_snapshot.h"
 
 namespace hapticd::force {
@@ -45,8 +46,12 @@ struct ProxyMove {
   bool overflow = false;
 };
 
-// Moves a proxy of radius r >= 0 from start (outside every object) towards goal.
-// Allocation-free; non-finite input leaves the proxy at start.
+// Moves a proxy of radius r >= 0 from start (outside every object) towards goal, asking
+// near's scene queries (what a tick gathered around the proxy; the answers are the
+// scene's). Allocation-free; non-finite input leaves the proxy at start.
+ProxyMove MoveProxy(const query::Neighbourhood& near, const Vector3& start, const Vector3& goal, double r);
+// The same, asking every query of the whole scene (the direct path: the oracle of the
+// gathered one).
 ProxyMove MoveProxy(const scene::SceneSnapshot& scene, const Vector3& start, const Vector3& goal,
                     double r);
 
@@ -54,9 +59,20 @@ ProxyMove MoveProxy(const scene::SceneSnapshot& scene, const Vector3& start, con
 // a kinematic object it rests on (the object's point velocity times dt), then pushed out
 // of any object that moved into it (along the deepest contact's normal). Static scenes
 // that did not change since the last tick (scene_changed false) skip the push-out: a
-// proxy that stayed outside is still outside. Allocation-free.
+// proxy that stayed outside is still outside. Asks near's queries. Allocation-free.
+Vector3 CarryProxy(const query::Neighbourhood& near, const Vector3& x, double r, double dt, bool scene_changed);
+// The same, asking the whole scene.
 Vector3 CarryProxy(const scene::SceneSnapshot& scene, const Vector3& x, double r, double dt,
                    bool scene_changed);
+
+// Gathers near, for a tick of a proxy of radius r >= 0 at x that is expected to move by
+// about expected_motion (m) this tick, in the ball that holds the proxy along that motion
+// with some room: about its middle, of radius r plus 0.6 of the motion's length plus 20
+// micrometres (a proxy at rest still slides a little, and its step turns and grows from
+// tick to tick). Only the cost depends on the guess: a query reaching farther asks the
+// scene. Triangles are gathered for a sphere only (gathered_mesh.h). Real-time safe.
+void GatherAlong(const scene::SceneSnapshot& scene, query::Neighbourhood& near, const Vector3& x, double r,
+                 const Vector3& expected_motion);
 
 // The point nearest goal with normal_i . x >= offset_i for the given planes (Ruspini's
 // sub-goal), by trying every subset of at most three active planes and keeping the

@@ -36,16 +36,24 @@ bool IsAbsurd(const DeviceInput& in, const DeviceSettings& device) {
          in.f_held_W.norm() > kForceMargin * device.max_force;
 }
 
+// A penalty session asks one query a tick: nothing to gather for.
+NeighbourhoodCapacity CapacityFor(const SessionSettings& s, const NeighbourhoodCapacity& asked) {
+  const bool penalty = s.device.mode == DeviceMode::kImpedance && s.avatar.method == ForceMethod::kPenalty;
+  return penalty ? NeighbourhoodCapacity{0, 0} : asked;
+}
+
 }  // namespace
 
 struct RenderSession::State {
-  explicit State(const SessionSettings& s)
-      : proxy(s.avatar.radius, s.avatar.force_shading),
+  State(const SessionSettings& s, const NeighbourhoodCapacity& capacity)
+      : near(capacity.objects, capacity.triangles),
+        proxy(s.avatar.radius, s.avatar.force_shading),
         admittance(s.avatar.radius, s.admittance, s.device.max_velocity),
         passivity(s.control.passivity, kPassivityDampingPerNewton * s.device.max_force),
         limiter(s.device.max_force, s.device.max_force_rate),
         watchdog(s.control.watchdog_timeout_s, s.control.watchdog_ramp_s) {}
 
+  query::Neighbourhood near;  // gathered by the avatar each tick
   ProxyAvatar proxy;
   AdmittanceAvatar admittance;
   PassivityController passivity;
@@ -62,13 +70,14 @@ struct RenderSession::State {
   bool overran = false;
 };
 
-RenderSession::RenderSession(const SessionSettings& settings, int64_t work_budget)
+RenderSession::RenderSession(const SessionSettings& settings, int64_t work_budget,
+                             const NeighbourhoodCapacity& neighbourhood)
     : settings_(settings), work_budget_(work_budget), work_credit_(work_budget) {
   if (const auto error = ValidateSessionSettings(settings)) throw std::invalid_argument(*error);
   if (work_budget <= 0) {
     throw std::invalid_argument("the tick work budget is " + std::to_string(work_budget) + "; it must be positive");
   }
-  state_ = std::make_unique<State>(settings);
+  state_ = std::make_unique<State>(settings, CapacityFor(settings, neighbourhood));
 }
 
 RenderSession::~RenderSession() = default;
@@ -90,6 +99,8 @@ void RenderSession::Reset(const Vector3& p_W) {
   s.overran = false;
   work_credit_ = work_budget_;
 }
+
+const query::Neighbourhood& RenderSession::neighbourhood() const { return state_->near; }
 
 double RenderSession::observed_energy() const { return state_->passivity.observed_energy(); }
 
@@ -158,7 +169,7 @@ TickOutput RenderSession::Render(const scene::SceneSnapshot& scene, const Device
 
   // admittance: force in, pose out (a silent device's force fades with the watchdog)
   if (settings_.device.mode == DeviceMode::kAdmittance) {
-    const AvatarForce avatar = s.admittance.Step(scene, scale * in.f_sensed_W, dt);
+    const AvatarForce avatar = s.admittance.Step(scene, s.near, scale * in.f_sensed_W, dt);
     counters_.constraint_overflows += avatar.overflow;
     s.f_unscaled_W = in.f_sensed_W;
     out.f_W = avatar.f_W;
@@ -174,7 +185,7 @@ TickOutput RenderSession::Render(const scene::SceneSnapshot& scene, const Device
   const AvatarForce avatar =
       a.method == ForceMethod::kPenalty
           ? CalcPenaltyForce(scene, in.p_WD, in.v_WD, a.radius, a.force_shading)
-          : s.proxy.Step(scene, in.p_WD, in.v_WD, dt);
+          : s.proxy.Step(scene, s.near, in.p_WD, in.v_WD, dt);
   counters_.constraint_overflows += avatar.overflow;
 
   // control: passivity, then the device's limits, then the watchdog's ramp

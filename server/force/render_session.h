@@ -22,6 +22,7 @@
 #include <memory>
 
 #include "server/force/session_settings.h"
+#include "server/query/neighbourhood.h"
 #include "server/scene/scene_snapshot.h"
 
 namespace hapticd::force {
@@ -61,6 +62,16 @@ struct TickOutput {
 // a sphere of 1M triangles; bench/results/render_tick.md).
 inline constexpr int64_t kDefaultTickWorkBudget = 10000;
 
+// What a proxy or admittance session gathers around its avatar once a tick and asks its
+// queries of (query::Neighbourhood): at most this many objects and mesh triangles. The
+// answers are the same whatever it holds; {0, 0}: nothing is gathered and every query
+// asks the whole scene (the direct path, kept for comparisons). Penalty sessions ask
+// one query a tick and never gather.
+struct NeighbourhoodCapacity {
+  int objects = query::kDefaultNeighbourObjects;
+  int triangles = query::kDefaultNeighbourTriangles;
+};
+
 // Events counted on the real-time path, read by a non-real-time thread.
 struct SessionCounters {
   uint64_t ticks = 0;
@@ -77,7 +88,8 @@ class RenderSession {
  public:
   // Throws std::invalid_argument with ValidateSessionSettings' message on bad settings,
   // or when work_budget (units per tick, the deployment's) is not positive.
-  explicit RenderSession(const SessionSettings& settings, int64_t work_budget = kDefaultTickWorkBudget);
+  explicit RenderSession(const SessionSettings& settings, int64_t work_budget = kDefaultTickWorkBudget,
+                         const NeighbourhoodCapacity& neighbourhood = {});
   ~RenderSession();
   RenderSession(RenderSession&&) noexcept;
   RenderSession& operator=(RenderSession&&) noexcept;
@@ -93,6 +105,8 @@ class RenderSession {
   const SessionCounters& counters() const { return counters_; }
   // Work units the last tick spent (geometry::WorkMeter; past the budget if it overran).
   int64_t last_tick_work() const { return last_tick_work_; }
+  // The last tick's neighbourhood (what it gathered, how often it answered alone).
+  const query::Neighbourhood& neighbourhood() const;
   // Net energy (J) the passivity observer has seen the rendered force put into the
   // device (positive: generated).
   double observed_energy() const;

@@ -196,20 +196,53 @@ double PointSweepTime(const Triangle& tri, const Sweep& s) {
   return h.hit ? h.t : kNoHit;
 }
 
-// The t at which the sweep first blocks on tri (see the header's rules), or kNoHit.
-double SweepTime(const Triangle& tri, const Sweep& s) {
-  if (s.radius == 0) return PointSweepTime(tri, s);
-  // the segment passes farther than r from the triangle's bounding sphere (about its
-  // centroid): never within r. Cheap, and it drops most of the triangles near a resting
-  // sphere that the boxes and the plane test below keep
-  const Vector3 centroid = (tri.v0 + tri.v1 + tri.v2) / 3;
-  const double bounding_radius = std::sqrt(std::max({(tri.v0 - centroid).squaredNorm(),
-                                                     (tri.v1 - centroid).squaredNorm(),
-                                                     (tri.v2 - centroid).squaredNorm()}));
+// The centre of a triangle's bounding sphere.
+Vector3 CentroidOf(const Triangle& tri) { return (tri.v0 + tri.v1 + tri.v2) / 3; }
+
+// The radius of the sphere about centroid that holds the triangle.
+double BoundingRadiusOf(const Triangle& tri, const Vector3& centroid) {
+  return std::sqrt(std::max({(tri.v0 - centroid).squaredNorm(), (tri.v1 - centroid).squaredNorm(),
+                             (tri.v2 - centroid).squaredNorm()}));
+}
+
+// Whether a sweep of radius > 0 passes farther than its reach from a triangle's bounding
+// sphere: then it never comes within r. Cheap, and it drops most of the triangles near a
+// resting sphere that the boxes and the plane test keep.
+bool PassesFarFrom(const Vector3& centroid, double bounding_radius, const Sweep& s) {
   const Vector3 offset = s.a - centroid;
   const double nearest = std::clamp(-offset.dot(s.d) / s.d.squaredNorm(), 0.0, 1.0);
   const double bound = s.reach + bounding_radius;
-  if ((offset + nearest * s.d).squaredNorm() > bound * bound) return kNoHit;
+  return (offset + nearest * s.d).squaredNorm() > bound * bound;
+}
+
+// Whether a sweep of radius > 0 stays farther than its reach from a prepared triangle,
+// by a lower bound of their distance: at a centre x of height h over the triangle's
+// plane whose projection onto the plane lies l from the centroid, the distance is at
+// least sqrt(h^2 + max(0, l - bounding radius)^2) (the triangle lies in the plane within
+// its bounding circle); over the segment, the least height (0 when it crosses the plane)
+// and the least l bound it below. Tighter than the bounding sphere where a sphere slides
+// over a dense surface: there every triangle near the contact is about r from the
+// centre, and only those under the path are within reach. Rounding is far inside the
+// reach's slack.
+bool PassesFarFrom(const PreparedTriangle& prepared, const Sweep& s) {
+  const Vector3& n = prepared.normal;
+  const Vector3 offset = s.a - prepared.centroid;
+  const double height_a = n.dot(offset);
+  const double climb = n.dot(s.d);
+  const double height_b = height_a + climb;
+  const double height = height_a * height_b <= 0 ? 0 : std::min(std::abs(height_a), std::abs(height_b));
+  // in the plane: the start's and the motion's components along it
+  const Vector3 lateral = offset - height_a * n;
+  const Vector3 drift = s.d - climb * n;
+  const double drift_squared = drift.squaredNorm();
+  const double nearest = drift_squared > 0 ? std::clamp(-lateral.dot(drift) / drift_squared, 0.0, 1.0) : 0.0;
+  const double beside = std::max(0.0, (lateral + nearest * drift).norm() - prepared.bounding_radius);
+  return height * height + beside * beside > s.reach * s.reach;
+}
+
+// SweepTime for r > 0 on a triangle whose bounding sphere the sweep comes near.
+double NearSweepTime(const Triangle& tri, const Vector3& centroid, double bounding_radius, const Sweep& s) {
+  const Vector3 offset = s.a - centroid;
   // both ends farther than r from the plane, on one side: never within r (heights and
   // reach scaled by |N|, so no square root yet)
   const Vector3 area_normal = AreaNormal(tri);
@@ -243,6 +276,15 @@ double SweepTime(const Triangle& tri, const Sweep& s) {
   // contact where D first reaches r (never after t_block, whatever the rounding)
   const double t_touch = FirstEntryTime(tri, n, s.a, s.d, s.radius);
   return t_touch == kNoHit ? t_block : std::min(t_touch, t_block);
+}
+
+// The t at which the sweep first blocks on tri (see the header's rules), or kNoHit.
+double SweepTime(const Triangle& tri, const Sweep& s) {
+  if (s.radius == 0) return PointSweepTime(tri, s);
+  const Vector3 centroid = CentroidOf(tri);
+  const double bounding_radius = BoundingRadiusOf(tri, centroid);
+  if (PassesFarFrom(centroid, bounding_radius, s)) return kNoHit;
+  return NearSweepTime(tri, centroid, bounding_radius, s);
 }
 
 // Which feature the line a-b crosses the triangle at, from the exact signs of the
@@ -469,6 +511,109 @@ SphereSweepHit SweepSphereMesh(const MeshBvh& bvh, const Vector3& a, const Vecto
   const int triangle = bvh.primitive_triangle(best);
   SphereSweepHit hit = MakeHit(bvh.primitive(best), s, best_t);
   hit.triangle = triangle;
+  return hit;
+}
+
+PreparedTriangle PrepareTriangle(const Triangle& triangle, int index) {
+  PreparedTriangle prepared;
+  prepared.triangle = triangle;
+  prepared.box = Aabb::OfTriangle(triangle);
+  prepared.centroid = CentroidOf(triangle);
+  prepared.bounding_radius = BoundingRadiusOf(triangle, prepared.centroid);
+  prepared.normal = UnitOrZero(AreaNormal(triangle));
+  prepared.index = index;
+  return prepared;
+}
+
+int GatherMeshTriangles(const MeshBvh& bvh, const Sphere& ball, std::span<PreparedTriangle> out) {
+  const Vector3& c = ball.center;
+  if (!c.allFinite() || !(ball.radius >= 0) || !std::isfinite(ball.radius)) return 0;
+  const double r2 = ball.radius * ball.radius;
+  const Double2 p[3] = {Splat(c.x()), Splat(c.y()), Splat(c.z())};
+  const std::vector<BvhNode>& nodes = bvh.nodes();
+  // every child box within the ball is opened (no order: all of them are wanted)
+  int stack[(kBvhWidth - 1) * kMaxBvhDepth + 1];
+  int top = 0;
+  stack[top++] = 0;
+  int found = 0;
+  const int capacity = static_cast<int>(out.size());
+  while (top > 0) {
+    if (!WorkMeter::Charge(1)) return found;
+    const BvhNode& node = nodes[stack[--top]];
+    // squared distances from c to the children's boxes, two at a time (infinite for an
+    // empty slot)
+    double d2[kBvhWidth];
+    for (int k = 0; k < kBvhWidth; k += 4) {
+      Double2 sum[2] = {Splat(0), Splat(0)};
+      for (int a = 0; a < 3; ++a) {
+        Double2 lo[2], hi[2];
+        Load(node.lo[a] + k, lo[0], lo[1]);
+        Load(node.hi[a] + k, hi[0], hi[1]);
+        for (int h = 0; h < 2; ++h) {
+          const Double2 below = lo[h] - p[a];
+          const Double2 above = p[a] - hi[h];
+          Double2 gap = below > above ? below : above;
+          gap = gap > 0 ? gap : Splat(0);
+          sum[h] += gap * gap;
+        }
+      }
+      for (int h = 0; h < 2; ++h) {
+        d2[k + 2 * h] = sum[h][0];
+        d2[k + 2 * h + 1] = sum[h][1];
+      }
+    }
+    for (int k = 0; k < kBvhWidth; ++k) {
+      if (!(d2[k] <= r2)) continue;
+      if (!node.is_leaf(k)) {
+        Prefetch(nodes[node.child[k]]);
+        stack[top++] = node.child[k];
+        continue;
+      }
+      if (!WorkMeter::Charge(node.count[k])) return found;
+      for (int i = node.first_primitive(k); i < node.first_primitive(k) + node.count[k]; ++i) {
+        const Triangle& tri = bvh.primitive(i);
+        const Aabb box = Aabb::OfTriangle(tri);
+        if ((box.min - c).cwiseMax(c - box.max).cwiseMax(0.0).squaredNorm() > r2) continue;
+        // full: say so, and stop
+        if (found == capacity) return capacity + 1;
+        out[found++] = PrepareTriangle(tri, bvh.primitive_triangle(i));
+      }
+    }
+  }
+  return found;
+}
+
+SphereSweepHit SweepSphereTriangles(std::span<const PreparedTriangle> triangles, const Vector3& a,
+                                    const Vector3& b, double r) {
+  Sweep s;
+  if (!MakeSweep(a, b, r, s)) return {};
+  // SweepSphereMesh's leaf test on each triangle: its exact box reject, the bounding
+  // sphere's, then the sweep
+  if (!WorkMeter::Charge((static_cast<int64_t>(triangles.size()) + 7) / 8)) return {};
+  const Aabb reach = Aabb{a.cwiseMin(b), a.cwiseMax(b)}.Inflated(s.reach);
+  int best = -1;
+  double best_t = 0;
+  for (int i = 0; i < static_cast<int>(triangles.size()); ++i) {
+    const PreparedTriangle& prepared = triangles[i];
+    if (!AabbsOverlap(reach, prepared.box)) continue;
+    // the mesh sweep's bounding-sphere reject first (the cheaper), then the tighter one
+    if (s.radius > 0 && (PassesFarFrom(prepared.centroid, prepared.bounding_radius, s) ||
+                         PassesFarFrom(prepared, s))) {
+      continue;
+    }
+    if (!WorkMeter::Charge(1)) return {};
+    const double t = s.radius == 0 ? PointSweepTime(prepared.triangle, s)
+                                   : NearSweepTime(prepared.triangle, prepared.centroid,
+                                                   prepared.bounding_radius, s);
+    if (t == kNoHit || (best >= 0 && !(t < best_t))) continue;
+    best = i;
+    best_t = t;
+    // a hit at the start cannot be beaten
+    if (t == 0) break;
+  }
+  if (best < 0) return {};
+  SphereSweepHit hit = MakeHit(triangles[best].triangle, s, best_t);
+  hit.triangle = triangles[best].index;
   return hit;
 }
 

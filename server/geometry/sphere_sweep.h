@@ -35,6 +35,9 @@
 // hit. Every decision is made on the double-precision triangle; all points are in one
 // frame (the mesh's), in its units. Pure, thread-safe, allocation-free, never throws.
 
+#include <span>
+
+#include "server/geometry/aabb.h"
 #include "server/geometry/bvh.h"
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/types.h"
@@ -79,5 +82,35 @@ SphereSweepHit SweepSphereTriangle(const Triangle& tri, const Vector3& a, const 
 // any one of them where several tie. Equals the minimum of SweepSphereTriangle over the
 // mesh's triangles, with triangle set to the original index.
 SphereSweepHit SweepSphereMesh(const MeshBvh& bvh, const Vector3& a, const Vector3& b, double r);
+
+// A mesh triangle made ready to be swept many times (SweepSphereTriangles): what
+// SweepSphereMesh computes of each triangle it meets, computed once.
+struct PreparedTriangle {
+  Triangle triangle;
+  Aabb box;                 // Aabb::OfTriangle(triangle)
+  Vector3 centroid = Vector3::Zero();
+  double bounding_radius = 0;  // of the sphere about centroid that holds the triangle
+  Vector3 normal = Vector3::Zero();  // unit, right-handed; zero for no area
+  int index = -1;           // original mesh index
+};
+
+PreparedTriangle PrepareTriangle(const Triangle& triangle, int index);
+
+// The triangles of bvh (its non-degenerate ones) whose boxes lie within the closed ball
+// (radius >= 0), prepared, in no particular order: writes them to out and returns how
+// many there are, or out.size() + 1 as soon as more are found than out holds (the
+// traversal stops there). Charges the work meter like the BVH queries (one unit per
+// node opened and per primitive tested); non-finite input finds nothing.
+int GatherMeshTriangles(const MeshBvh& bvh, const Sphere& ball, std::span<PreparedTriangle> out);
+
+// SweepSphereMesh over the given triangles instead of a whole mesh, with its decisions
+// bit for bit: the earliest of their hits, the first of them in the span where several
+// tie (triangle: its index). Triangles the sweep cannot come within reach of are passed
+// over by a bound tighter than the mesh sweep's (the segment's height over the
+// triangle's plane and its distance within that plane from the triangle's bounding
+// circle), so that a sphere sliding over a dense surface tests few exactly. Charges one
+// work unit per triangle tested exactly and one per eight passed over.
+SphereSweepHit SweepSphereTriangles(std::span<const PreparedTriangle> triangles, const Vector3& a,
+                                    const Vector3& b, double r);
 
 }  // namespace hapticd::geometry

@@ -5,6 +5,7 @@
 #include <tuple>
 
 #include "server/geometry/work_meter.h"
+#include "server/query/neighbourhood.h"
 
 namespace hapticd::query {
 namespace {
@@ -15,15 +16,39 @@ double DistanceSquaredToBox(const geometry::Aabb& box, const Vector3& p) {
   return outside.squaredNorm();
 }
 
-}  // namespace
+// Each query's rule is written once, over the objects some walk offers (Objects:
+// for_each(box, visit) calls visit(i, mesh) for objects i whose bounds overlap box, mesh
+// the triangles a Neighbourhood gathered of it): the snapshot's broad phase, or a
+// Neighbourhood's gathered objects.
 
-SceneContact FindDeepestContact(const scene::SceneSnapshot& scene, const Vector3& c_W, double r,
-                                double max_gap) {
+const GatheredMesh kNoTriangles;
+
+// Offers the snapshot's objects near box, with no gathered triangles.
+struct SceneObjects {
+  const scene::SceneSnapshot& scene;
+  template <typename Visit>
+  void operator()(const geometry::Aabb& box, Visit visit) const {
+    scene.ForEachObjectNear(box, [&](int i) { return visit(i, kNoTriangles); });
+  }
+};
+
+// Offers a Neighbourhood's gathered objects near box.
+struct GatheredObjects {
+  const Neighbourhood& near;
+  template <typename Visit>
+  void operator()(const geometry::Aabb& box, Visit visit) const {
+    near.ForEachObjectNear(box, visit);
+  }
+};
+
+template <typename Objects>
+SceneContact FindDeepestContactAmong(const scene::SceneSnapshot& scene, const Objects& objects, const Vector3& c_W,
+                                     double r, double max_gap) {
   SceneContact deepest;
   if (!c_W.allFinite() || !(r >= 0) || !(max_gap >= 0)) return deepest;
   const double reach = r + max_gap;
   const geometry::Aabb near{c_W - Vector3::Constant(reach), c_W + Vector3::Constant(reach)};
-  scene.ForEachObjectNear(near, [&](int i) {
+  objects(near, [&](int i, const GatheredMesh&) {
     if (!geometry::WorkMeter::Charge(1)) return false;
     const scene::SceneObject& object = scene.object(i);
     // skip objects whose box is out of reach
@@ -46,10 +71,12 @@ SceneContact FindDeepestContact(const scene::SceneSnapshot& scene, const Vector3
   return deepest;
 }
 
-SceneContact FindKinematicContact(const scene::SceneSnapshot& scene, const Vector3& c_W, double reach) {
+template <typename Objects>
+SceneContact FindKinematicContactAmong(const scene::SceneSnapshot& scene, const Objects& objects, const Vector3& c_W,
+                                       double reach) {
   SceneContact carrier;
   if (!c_W.allFinite() || !(reach >= 0)) return carrier;
-  scene.ForEachObjectNear({c_W - Vector3::Constant(reach), c_W + Vector3::Constant(reach)}, [&](int i) {
+  objects({c_W - Vector3::Constant(reach), c_W + Vector3::Constant(reach)}, [&](int i, const GatheredMesh&) {
     if (!geometry::WorkMeter::Charge(1)) return false;
     const scene::SceneObject& object = scene.object(i);
     if (object.motion != scene::Motion::kKinematic || (carrier.object >= 0 && i > carrier.object)) return true;
@@ -62,17 +89,20 @@ SceneContact FindKinematicContact(const scene::SceneSnapshot& scene, const Vecto
   return carrier;
 }
 
-SceneSweep SweepSphereScene(const scene::SceneSnapshot& scene, const Vector3& a_W,
-                            const Vector3& b_W, double r) {
+template <typename Objects>
+SceneSweep SweepSphereSceneAmong(const scene::SceneSnapshot& scene, const Objects& objects, const Vector3& a_W,
+                                 const Vector3& b_W, double r) {
   SceneSweep first;
   if (!a_W.allFinite() || !b_W.allFinite() || !(r >= 0) || a_W == b_W) return first;
   // the box swept by the sphere, to skip objects it cannot reach
   geometry::Aabb swept{a_W.cwiseMin(b_W) - Vector3::Constant(r), a_W.cwiseMax(b_W) + Vector3::Constant(r)};
-  scene.ForEachObjectNear(swept, [&](int i) {
+  objects(swept, [&](int i, const GatheredMesh& mesh) {
     if (!geometry::WorkMeter::Charge(1)) return false;
     const scene::SceneObject& object = scene.object(i);
+    const Vector3 a_B = object.X_WB.ToBody(a_W);
+    const Vector3 b_B = object.X_WB.ToBody(b_W);
     const ShapeSweep sweep =
-        SweepSphereShape(object.shape, object.X_WB.ToBody(a_W), object.X_WB.ToBody(b_W), r);
+        mesh.radius >= 0 ? SweepSphereShape(object.shape, a_B, b_B, r, mesh) : SweepSphereShape(object.shape, a_B, b_B, r);
     // the first contact; of simultaneous ones, the first object in the scene
     if (!sweep.hit || (first.hit && (sweep.t > first.t || (sweep.t == first.t && i > first.object)))) {
       return true;
@@ -86,6 +116,52 @@ SceneSweep SweepSphereScene(const scene::SceneSnapshot& scene, const Vector3& a_
     return true;
   });
   return first;
+}
+
+}  // namespace
+
+SceneContact FindDeepestContact(const scene::SceneSnapshot& scene, const Vector3& c_W, double r,
+                                double max_gap) {
+  return FindDeepestContactAmong(scene, SceneObjects{scene}, c_W, r, max_gap);
+}
+
+SceneContact FindKinematicContact(const scene::SceneSnapshot& scene, const Vector3& c_W, double reach) {
+  return FindKinematicContactAmong(scene, SceneObjects{scene}, c_W, reach);
+}
+
+SceneSweep SweepSphereScene(const scene::SceneSnapshot& scene, const Vector3& a_W,
+                            const Vector3& b_W, double r) {
+  return SweepSphereSceneAmong(scene, SceneObjects{scene}, a_W, b_W, r);
+}
+
+// The neighbourhood's answers: from the gathered objects when the query reaches no
+// farther than they were gathered, else from the scene.
+
+SceneContact FindDeepestContact(const Neighbourhood& near, const Vector3& c_W, double r, double max_gap) {
+  if (near.CountAnswer(near.Holds(c_W, r + max_gap))) {
+    return FindDeepestContactAmong(near.scene(), GatheredObjects{near}, c_W, r, max_gap);
+  }
+  return FindDeepestContact(near.scene(), c_W, r, max_gap);
+}
+
+SceneContact FindKinematicContact(const Neighbourhood& near, const Vector3& c_W, double reach) {
+  if (near.CountAnswer(near.Holds(c_W, reach))) {
+    return FindKinematicContactAmong(near.scene(), GatheredObjects{near}, c_W, reach);
+  }
+  return FindKinematicContact(near.scene(), c_W, reach);
+}
+
+SceneSweep SweepSphereScene(const Neighbourhood& near, const Vector3& a_W, const Vector3& b_W, double r) {
+  // the objects left out cannot be touched while the sphere stays within the gathered
+  // ball: up to the first contact among the gathered ones, or the whole way
+  if (near.Holds(a_W, r)) {
+    const SceneSweep first = SweepSphereSceneAmong(near.scene(), GatheredObjects{near}, a_W, b_W, r);
+    const Vector3 last = first.hit ? Vector3(a_W + first.t * (b_W - a_W)) : b_W;
+    if (near.CountAnswer(near.Holds(last, r))) return first;
+  } else {
+    near.CountAnswer(false);
+  }
+  return SweepSphereScene(near.scene(), a_W, b_W, r);
 }
 
 void CastSegments(const scene::SceneSnapshot& scene, std::span<const Vector3> a_W, std::span<const Vector3> b_W,

@@ -6,7 +6,7 @@
 #include <limits>
 
 #include "server/geometry/closest_point_triangle.h"
-#include "server/geometry/gjk.h"
+#include "server/geometry/point_hull.h"
 #include "server/geometry/sphere_box.h"
 #include "server/geometry/sphere_sphere.h"
 #include "server/query/mesh_backends.h"
@@ -82,37 +82,10 @@ ShapeProbe ProbePlane(const Vector3& p) {
   return probe;
 }
 
-// Outside a hull, GJK gives the nearest point; inside, the nearest boundary point of a
-// convex polytope is the projection onto the face plane with the least depth.
 ShapeProbe ProbeConvex(const ConvexHull& hull, const Vector3& p) {
-  ShapeProbe probe;
-  const geometry::SphereSupport point_support(geometry::Sphere{p, 0});
-  const geometry::HullSupport hull_support(hull);
-  const geometry::GjkResult gjk = geometry::CalcGjkDistance(hull_support, point_support);
-  // a gap so small (subnormal) that its direction cannot be normalised is the surface:
-  // the faces below decide, with a unit normal
-  if (!gjk.intersect && gjk.distance > 0 && std::abs(gjk.normal.squaredNorm() - 1) < 1e-6) {
-    probe.found = true;
-    probe.signed_distance = gjk.distance;
-    probe.point_B = gjk.point_a;
-    probe.normal_B = gjk.normal;
-    return probe;
-  }
-  double best = -kInfinity;
-  int best_face = -1;
-  for (size_t f = 0; f < hull.faces.size(); ++f) {
-    const Vector3& n = hull.face_normals[f];
-    // a sliver face whose normal underflowed has no direction to push along
-    if (!(std::abs(n.squaredNorm() - 1) < 1e-6)) continue;
-    const double height = n.dot(p - hull.vertices[hull.faces[f][0]]);
-    if (height > best) best = height, best_face = static_cast<int>(f);
-  }
-  if (best_face < 0) return probe;
-  probe.found = true;
-  probe.signed_distance = std::min(best, 0.0);
-  probe.normal_B = hull.face_normals[best_face];
-  probe.point_B = p - probe.signed_distance * probe.normal_B;
-  return probe;
+  const geometry::PointHullResult nearest = geometry::CalcPointHullDistance(hull, p);
+  if (!nearest.found) return {};
+  return ProbeFromKernel(nearest.signed_distance, nearest.point, nearest.normal);
 }
 
 // A closed mesh: the closest surface point, then the side of p against the closest
@@ -215,13 +188,30 @@ ShapeSweep SweepSphere(const SphereShape& sphere, const Vector3& a, const Vector
 // the same first contact as a full sweep, except that a sphere resting within
 // kRestingGap of the nearest triangle and moving into it (deeper than the sweep's skin,
 // geometry::CalcSphereSweepSkin) stops at t = 0 at once.
-ShapeSweep SweepMesh(const MeshShape& shape, const Vector3& a, const Vector3& b, double r) {
+//
+// With near (the triangles a query::Neighbourhood gathered), each of the two mesh
+// questions is asked of them where they decide it (gathered_mesh.h), else of the backend.
+ShapeSweep SweepMesh(const MeshShape& shape, const Vector3& a, const Vector3& b, double r,
+                     const GatheredMesh* near) {
   const MeshBvh& bvh = *shape.bvh;
+  const MeshBackend& backend = BackendOf(shape);
+  const auto closest_point = [&](const Vector3& p, double max_distance) {
+    if (near != nullptr) {
+      if (const auto closest = FindGatheredClosestPoint(*near, p, max_distance)) return *closest;
+    }
+    return backend.closest_point(shape, p, max_distance);
+  };
+  const auto sweep_sphere = [&](const Vector3& from, const Vector3& to) {
+    if (near != nullptr) {
+      if (const auto hit = SweepGatheredSphere(*near, from, to, r)) return *hit;
+    }
+    return backend.sweep_sphere(shape, from, to, r);
+  };
   ShapeSweep sweep;
   Vector3 end = b;
   geometry::SphereSweepHit bound;
   if (r > 0) {
-    const geometry::MeshClosestPoint nearest = BackendOf(shape).closest_point(shape, a, r + (b - a).norm());
+    const geometry::MeshClosestPoint nearest = closest_point(a, r + (b - a).norm());
     if (nearest.found && nearest.distance <= r + kRestingGap) {
       const Vector3 pseudo_normal = bvh.mesh().FeatureNormal(nearest.triangle, nearest.feature);
       const Vector3 normal = UnitOr(a - nearest.point, pseudo_normal);
@@ -244,7 +234,7 @@ ShapeSweep SweepMesh(const MeshShape& shape, const Vector3& a, const Vector3& b,
   }
   geometry::SphereSweepHit hit;
   if (end != a) {
-    hit = BackendOf(shape).sweep_sphere(shape, a, end, r);
+    hit = sweep_sphere(a, end);
     // back to the parameter of the whole sweep a -> b
     if (hit.hit && bound.hit) hit.t *= bound.t;
   }
@@ -318,7 +308,7 @@ ShapeSweep SweepAnySphere(const scene::Shape& shape, const Vector3& a, const Vec
   return SweepSphere(std::get<SphereShape>(shape), a, b, r);
 }
 ShapeSweep SweepAnyMesh(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
-  return SweepMesh(std::get<MeshShape>(shape), a, b, r);
+  return SweepMesh(std::get<MeshShape>(shape), a, b, r, nullptr);
 }
 
 using scene::ShapeType;
@@ -359,6 +349,14 @@ ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const
   const RepresentationQueries* row = RowOf(shape);
   if (row == nullptr || !a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || a_B == b_B) return {};
   return row->sweep(shape, a_B, b_B, r);
+}
+
+ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const Vector3& b_B, double r,
+                            const GatheredMesh& near) {
+  const auto* mesh = std::get_if<MeshShape>(&shape);
+  if (mesh == nullptr) return SweepSphereShape(shape, a_B, b_B, r);
+  if (!a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || a_B == b_B) return {};
+  return SweepMesh(*mesh, a_B, b_B, r, &near);
 }
 
 void SweepPointsShape(const scene::Shape& shape, std::span<const Vector3> a_B, std::span<const Vector3> b_B,

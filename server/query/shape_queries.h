@@ -8,6 +8,7 @@
 #include <span>
 
 #include "server/geometry/mesh_queries.h"
+#include "server/query/gathered_mesh.h"
 #include "server/scene/shape.h"
 
 namespace hapticd::query {
@@ -53,6 +54,12 @@ struct ShapeSweep {
 // the crossings they report are within that of the exact one.
 ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const Vector3& b_B,
                             double r);
+
+// SweepSphereShape, asking a mesh's nearest triangle and sweep of the triangles gathered
+// near the sweep (gathered_mesh.h) where they decide them: the same first contact (of
+// triangles touched at the same t, it may name another). Other shapes ignore near.
+ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const Vector3& b_B, double r,
+                            const GatheredMesh& near);
 
 // out[i] = SweepSphereShape(shape, a_B[i], b_B[i], 0) for the first min(sizes) segments
 // (a ray batch): a mesh's backend traces them together (Embree in packets).

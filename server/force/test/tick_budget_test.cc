@@ -33,7 +33,7 @@ scene::MeshSpec UnsplittableStack(int n) {
   return mesh;
 }
 
-// A box (top at z = 0.1) at x = 1 and the stack at x = -1.
+// A box (its -x face at x = 0.9) at x = 1 and the stack at x = -1.
 std::shared_ptr<const scene::SceneSnapshot> MakeScene(scene::RayBackend backend) {
   std::vector<scene::ObjectSpec> specs = {
       MakeObject("box", scene::BoxShape{Vector3::Constant(0.1)}, {1, 0, 0}, MakeMaterial(1000)),
@@ -55,12 +55,14 @@ TEST_P(TickBudget, AnOverrunSendsTheLastSafeForceAndAStreamOfThemRampsDown) {
   const auto scene = MakeScene(GetParam());
   const SessionSettings settings;  // god-object, watchdog 50 ms then a 100 ms ramp
   RenderSession session(settings, kBudget);
-  session.Reset({1, 0, 0.2});
-  const Vector3 on_box(1, 0, 0.099);  // 1 mm into the box's top: 1 N up
+  session.Reset({0.85, 0, 0.05});
+  // 1 mm into the box's -x face: 1 N towards -x (and the way to the stack leaves the
+  // face, so the proxy's sweep there must meet the stack)
+  const Vector3 on_box(0.901, 0, 0.05);
   TickOutput safe;
   for (int i = 0; i < 50; ++i) safe = session.Tick(*scene, At(on_box), 1e-3);
   ASSERT_FALSE(safe.overrun);
-  ASSERT_NEAR(safe.f_W.z(), 1.0, 1e-5);
+  ASSERT_NEAR(safe.f_W.x(), -1.0, 1e-5);
   ASSERT_LE(session.last_tick_work(), kBudget);
   EXPECT_EQ(session.counters().tick_overruns, 0u);
 
@@ -93,7 +95,7 @@ TEST_P(TickBudget, AnOverrunSendsTheLastSafeForceAndAStreamOfThemRampsDown) {
   // back on the box: rendering resumes from where the proxy stayed
   for (int i = 0; i < 5; ++i) out = session.Tick(*scene, At(on_box), 1e-3);
   EXPECT_FALSE(out.overrun);
-  EXPECT_NEAR(out.f_W.z(), 1.0, 1e-5);
+  EXPECT_NEAR(out.f_W.x(), -1.0, 1e-5);
   EXPECT_EQ(session.counters().tick_overruns, 201u);
 }
 
@@ -102,8 +104,8 @@ TEST_P(TickBudget, AnOverrunSendsTheLastSafeForceAndAStreamOfThemRampsDown) {
 TEST_P(TickBudget, WithoutABudgetTheSameTicksDoNotOverrun) {
   const auto scene = MakeScene(GetParam());
   RenderSession session(SessionSettings{}, int64_t{1} << 40);
-  session.Reset({1, 0, 0.2});
-  for (int i = 0; i < 50; ++i) session.Tick(*scene, At({1, 0, 0.099}), 1e-3);
+  session.Reset({0.85, 0, 0.05});
+  for (int i = 0; i < 50; ++i) session.Tick(*scene, At({0.901, 0, 0.05}), 1e-3);
   const TickOutput out = session.Tick(*scene, At({-1, 0.02, -0.001}), 1e-3);
   EXPECT_FALSE(out.overrun);
   EXPECT_GT(session.last_tick_work(), kStackTriangles);

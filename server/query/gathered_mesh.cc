@@ -1,0 +1,91 @@
+#include "server/query/gathered_mesh.h"
+
+#include <cmath>
+
+#include "server/geometry/closest_point_triangle.h"
+#include "server/geometry/work_meter.h"
+
+namespace hapticd::query {
+namespace {
+
+// Squared distance from p to a box (0 inside): a lower bound of the distance to what it
+// holds.
+double DistanceSquaredToBox(const geometry::Aabb& box, const Vector3& p) {
+  return (box.min - p).cwiseMax(p - box.max).cwiseMax(0.0).squaredNorm();
+}
+
+// How far from p the gathered triangles hold everything: what lies farther may belong to
+// triangles left out. Negative (or NaN) when nothing is known there.
+double KnownReach(const GatheredMesh& near, const Vector3& p) {
+  return near.radius - (p - near.center_B).norm() - kGatheredSlack;
+}
+
+}  // namespace
+
+std::optional<geometry::MeshClosestPoint> FindGatheredClosestPoint(const GatheredMesh& near, const Vector3& p_B,
+                                                                   double max_distance) {
+  const double known = KnownReach(near, p_B);
+  if (!(known >= 0) || !(max_distance >= 0)) return std::nullopt;
+  const std::span<const geometry::PreparedTriangle> triangles = near.triangles;
+  const int n = static_cast<int>(triangles.size());
+  if (!geometry::WorkMeter::Charge((2 * static_cast<int64_t>(n) + 7) / 8)) return std::nullopt;
+  // FindClosestPointOnMesh's rule: within max_distance, then strictly nearer; here of
+  // equally near triangles the first in the span, whichever is tried first. The one
+  // with the nearest box is tried first, so that the others are mostly passed over by
+  // their boxes.
+  double best_d2 = max_distance * max_distance;
+  int seed = -1;
+  double seed_d2 = best_d2;
+  for (int i = 0; i < n; ++i) {
+    const double d2 = DistanceSquaredToBox(triangles[i].box, p_B);
+    if (d2 <= seed_d2 && (seed < 0 || d2 < seed_d2)) seed = i, seed_d2 = d2;
+  }
+  int best = -1;
+  geometry::ClosestPointOnTriangle best_point;
+  const auto consider = [&](int i) {
+    const geometry::ClosestPointOnTriangle c = geometry::FindClosestPointOnTriangle(p_B, triangles[i].triangle);
+    if (!(c.distance_squared <= best_d2)) return;
+    if (best >= 0 && c.distance_squared == best_d2 && i > best) return;
+    best = i;
+    best_d2 = c.distance_squared;
+    best_point = c;
+  };
+  if (seed >= 0) {
+    if (!geometry::WorkMeter::Charge(1)) return std::nullopt;
+    consider(seed);
+    for (int i = 0; i < n; ++i) {
+      if (i == seed || DistanceSquaredToBox(triangles[i].box, p_B) > best_d2) continue;
+      if (!geometry::WorkMeter::Charge(1)) return std::nullopt;
+      consider(i);
+    }
+  }
+  geometry::MeshClosestPoint closest;
+  if (best < 0) {
+    // nothing gathered within max_distance: the mesh has nothing there either when the
+    // gathered ball holds all of it
+    if (max_distance <= known) return closest;
+    return std::nullopt;
+  }
+  closest = {true, triangles[best].index, best_point.feature, best_point.point, best_point.u, best_point.v,
+             std::sqrt(best_d2)};
+  if (!(closest.distance <= known)) return std::nullopt;
+  return closest;
+}
+
+std::optional<geometry::SphereSweepHit> SweepGatheredSphere(const GatheredMesh& near, const Vector3& a_B,
+                                                            const Vector3& b_B, double r) {
+  // what SweepSphereMesh misses at once
+  if (!a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || !std::isfinite(r) || a_B == b_B) {
+    return geometry::SphereSweepHit{};
+  }
+  // the centre must stay this near center_B until the first contact: then every
+  // triangle it comes within reach of was gathered
+  const double limit = near.radius - kGatheredSlack - geometry::CalcSphereSweepReach(a_B, b_B, r);
+  if (!((a_B - near.center_B).norm() <= limit)) return std::nullopt;
+  const geometry::SphereSweepHit hit = geometry::SweepSphereTriangles(near.triangles, a_B, b_B, r);
+  const Vector3 last = hit.hit ? Vector3(a_B + hit.t * (b_B - a_B)) : b_B;
+  if (!((last - near.center_B).norm() <= limit)) return std::nullopt;
+  return hit;
+}
+
+}  // namespace hapticd::query

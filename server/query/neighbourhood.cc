@@ -1,0 +1,75 @@
+#include "server/query/neighbourhood.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "server/geometry/work_meter.h"
+
+namespace hapticd::query {
+namespace {
+
+// Squared distance from p to a box (0 inside); infinite extents work.
+double DistanceSquaredToBox(const geometry::Aabb& box, const Vector3& p) {
+  const Vector3 outside = (box.min - p).cwiseMax(p - box.max).cwiseMax(0.0);
+  return outside.squaredNorm();
+}
+
+bool IsBounded(const geometry::Aabb& bounds) {
+  return !bounds.empty() && bounds.min.allFinite() && bounds.max.allFinite();
+}
+
+}  // namespace
+
+Neighbourhood::Neighbourhood(const scene::SceneSnapshot& scene) : scene_(&scene) {}
+
+Neighbourhood::Neighbourhood(int max_objects, int max_triangles)
+    : objects_(std::max(max_objects, 0)), triangles_(std::max(max_triangles, 0)) {}
+
+void Neighbourhood::Gather(const scene::SceneSnapshot& scene, const Vector3& c_W, double radius, bool triangles) {
+  scene_ = &scene;
+  center_W_ = c_W;
+  radius_ = -1;
+  num_objects_ = 0;
+  num_triangles_ = 0;
+  if (!c_W.allFinite() || !(radius >= 0) || !std::isfinite(radius) || objects_.empty()) return;
+  // the objects whose bounds lie within radius, while they fit
+  bool fits = true;
+  const geometry::Aabb cube{c_W - Vector3::Constant(radius), c_W + Vector3::Constant(radius)};
+  scene.ForEachObjectNear(cube, [&](int i) {
+    if (!geometry::WorkMeter::Charge(1)) return fits = false;
+    const scene::SceneObject& object = scene.object(i);
+    if (DistanceSquaredToBox(object.bounds_W, c_W) > radius * radius) return true;
+    if (num_objects_ == static_cast<int>(objects_.size())) return fits = false;
+    objects_[num_objects_++] = {i, IsBounded(object.bounds_W), {}};
+    return true;
+  });
+  if (!fits) {
+    num_objects_ = 0;
+    return;
+  }
+  // in scene order, as the scene's queries break their ties
+  std::sort(objects_.begin(), objects_.begin() + num_objects_,
+            [](const Object& x, const Object& y) { return x.index < y.index; });
+  // each mesh's triangles there, where they fit in what is left
+  for (int k = 0; k < num_objects_ && triangles; ++k) {
+    const scene::SceneObject& object = scene.object(objects_[k].index);
+    const auto* mesh = std::get_if<scene::MeshShape>(&object.shape);
+    if (mesh == nullptr) continue;
+    const Vector3 c_B = object.X_WB.ToBody(c_W);
+    const std::span<geometry::PreparedTriangle> free =
+        std::span(triangles_).subspan(static_cast<size_t>(num_triangles_));
+    const int found = geometry::GatherMeshTriangles(*mesh->bvh, {c_B, radius}, free);
+    if (found > static_cast<int>(free.size())) continue;
+    objects_[k].mesh = {free.first(static_cast<size_t>(found)), c_B, radius};
+    num_triangles_ += found;
+  }
+  // a spent work budget cut a walk short: what was gathered is not all there is (and
+  // the tick is thrown away)
+  if (geometry::WorkMeter::Exhausted()) {
+    num_objects_ = num_triangles_ = 0;
+    return;
+  }
+  radius_ = radius;
+}
+
+}  // namespace hapticd::query
