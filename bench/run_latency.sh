@@ -3,9 +3,10 @@
 #   1. device-to-command round trip of one 1 kHz session (the C++ proxy's simulated hand
 #      stroking the default scene) against hapticd and against a plain UDP echo, in
 #      alternating blocks;
-#   2. sessions one server holds: N sessions at 1 kHz from one proxy loop, against
-#      hapticd and against the echo at the same N, in alternating blocks; added latency =
-#      the difference; the CPU time each side used;
+#   2. sessions one server holds: N sessions at 1 kHz from one proxy (its loop threads
+#      sharing the sessions), against hapticd and against the echo at the same N, in
+#      alternating blocks; added latency = the difference; the CPU time each side used;
+#      the proxy's own misses (states it sent late against its schedule);
 #   3. one session while a 10 MB mesh is uploaded, edited and removed in a loop, beside
 #      the same session quiet (bench/scene_edit_load.py);
 #   4. the datagram codec's cost per datagram (Google Benchmark).
@@ -13,9 +14,13 @@
 # bench/results/latency.csv (one row per proxy run) and the raw runs in
 # bench/results/raw/latency_runs.jsonl and latency_codec.json (bench/latency_table.py
 # turns them into the tables again). About 3 minutes after the build.
+# The binaries come from $HAPTICD_BUILD_DIR (default build/, built by deploy/build.sh);
+# another directory is configured and only the bench's programs built there, with
+# $HAPTICD_JOBS jobs (default: every CPU).
 # Blocks alternate between hapticd and the echo and the tables report medians over
 # blocks, so a burst of other work on the machine does not land on one side only.
 #   bench/run_latency.sh [--blocks 5] [--block-seconds 4] [--scale-blocks 3] [--scale-seconds 1.5]
+#                        [--proxy-threads T]   (the sessions part's loop threads; default: the CPUs)
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"
@@ -24,14 +29,16 @@ blocks=5
 block_seconds=4
 scale_blocks=3
 scale_seconds=1.5
+proxy_threads="$(nproc)"
 while (($#)); do
   case "$1" in
     --blocks) blocks="$2"; shift 2 ;;
     --block-seconds) block_seconds="$2"; shift 2 ;;
     --scale-blocks) scale_blocks="$2"; shift 2 ;;
     --scale-seconds) scale_seconds="$2"; shift 2 ;;
+    --proxy-threads) proxy_threads="$2"; shift 2 ;;
     *)
-      echo "usage: bench/run_latency.sh [--blocks N] [--block-seconds S] [--scale-blocks N] [--scale-seconds S]" >&2
+      echo "usage: bench/run_latency.sh [--blocks N] [--block-seconds S] [--scale-blocks N] [--scale-seconds S] [--proxy-threads T]" >&2
       exit 2
       ;;
   esac
@@ -39,7 +46,15 @@ done
 sessions_list=(1 10 25 50 100 150 200)
 
 bash deploy/install.sh
-bash deploy/build.sh normal >/dev/null
+build="${HAPTICD_BUILD_DIR:-build}"
+if [[ "$build" == build ]]; then
+  bash deploy/build.sh normal >/dev/null
+else
+  cmake -S "$repo" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+  ninja -C "$build" -j "${HAPTICD_JOBS:-$(nproc)}" bin/hapticd bin/hapticd-udp-echo bin/hapticd-proxy \
+    bin/datagram_codec_bench >/dev/null
+fi
+bin="$build/bin"
 
 work="$(mktemp -d)"
 load_before="$(cut -d' ' -f1-3 /proc/loadavg)"
@@ -68,17 +83,19 @@ start() {
 }
 field() { .venv/bin/python -c "import json,sys; print(json.loads(sys.stdin.readline())['$1'])" <"$work/$2.out"; }
 
-start hapticd build/bin/hapticd --tcp-port 0 --udp-port 0 --log-level warning
+start hapticd "$bin/hapticd" --tcp-port 0 --udp-port 0 --log-level warning
 hapticd_pid="${pids[-1]}"
-start echo build/bin/hapticd-udp-echo --port 0
+start echo "$bin/hapticd-udp-echo" --port 0
 echo_pid="${pids[-1]}"
 server="$(field tcp hapticd)"
 echo_udp="$(field udp echo)"
 echo "run_latency: hapticd control $server, echo $echo_udp" >&2
 
-# cpu_seconds PID: user + system CPU time the process has used so far
-ticks_per_second="$(getconf CLK_TCK)"
-cpu_seconds() { awk -v hz="$ticks_per_second" '{ printf "%.2f", ($14 + $15) / hz }' "/proc/$1/stat"; }
+# cpu_seconds PID: the CPU time the process's threads have used so far (schedstat, ns,
+# not the 10 ms ticks of /proc/PID/stat); main_cpu_seconds PID: its main thread's
+# (hapticd's control thread; all of the echo)
+cpu_seconds() { cat /proc/"$1"/task/*/schedstat | awk '{ ns += $1 } END { printf "%.6f", ns / 1e9 }'; }
+main_cpu_seconds() { awk '{ printf "%.6f", $1 / 1e9 }' "/proc/$1/task/$1/schedstat"; }
 
 # proxy PHASE BLOCK hapticd|echo ARGS...: one proxy run against that peer, its JSON line
 # tagged with phase, block and the CPU time the peer used meanwhile
@@ -90,11 +107,13 @@ proxy() {
   local phase="$1" block="$2" peer="$3" target pid
   shift 3
   if [[ "$peer" == hapticd ]]; then target=(--server "$server"); pid="$hapticd_pid"; else target=(--echo "$echo_udp"); pid="$echo_pid"; fi
-  local before line after
+  local before main_before line after main_after
   before="$(cpu_seconds "$pid")"
-  line="$(build/bin/hapticd-proxy "${target[@]}" "$@")"
+  main_before="$(main_cpu_seconds "$pid")"
+  line="$("$bin/hapticd-proxy" "${target[@]}" "$@")"
   after="$(cpu_seconds "$pid")"
-  echo "{\"phase\": \"$phase\", \"block\": $block, \"peer_cpu_s\": $(awk -v a="$after" -v b="$before" 'BEGIN { printf "%.2f", a - b }'), \"result\": $line}" >>"$runs"
+  main_after="$(main_cpu_seconds "$pid")"
+  echo "{\"phase\": \"$phase\", \"block\": $block, \"peer_cpu_s\": $(awk -v a="$after" -v b="$before" 'BEGIN { printf "%.4f", a - b }'), \"peer_main_cpu_s\": $(awk -v a="$main_after" -v b="$main_before" 'BEGIN { printf "%.4f", a - b }'), \"result\": $line}" >>"$runs"
 }
 
 # 1. one session, hapticd and echo alternating
@@ -105,12 +124,15 @@ for block in $(seq "$blocks"); do
 done
 
 # 2. sessions: every device held 2 mm into the floor (in contact every tick); a longer
-# budget, since one loop sends N states before it can read an answer
+# budget, since a loop sends its share of the N states before it can read an answer; the
+# sessions dealt out to up to $proxy_threads loop threads
 for n in "${sessions_list[@]}"; do
   echo "run_latency: $n sessions" >&2
+  threads=$((n < proxy_threads ? n : proxy_threads))
   for block in $(seq "$scale_blocks"); do
     for peer in hapticd echo; do
-      proxy sessions "$block" "$peer" --seconds "$scale_seconds" --sessions "$n" --path press --budget-us 900
+      proxy sessions "$block" "$peer" --seconds "$scale_seconds" --sessions "$n" --threads "$threads" --path press \
+        --budget-us 900
     done
   done
 done
@@ -129,7 +151,7 @@ done
 
 # 4. the codec
 echo "run_latency: datagram codec" >&2
-build/bin/datagram_codec_bench --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
+"$bin/datagram_codec_bench" --benchmark_repetitions=5 --benchmark_report_aggregates_only=true \
   --benchmark_min_time=0.2 --benchmark_out_format=json --benchmark_out="$raw/latency_codec.json" >/dev/null
 
 machine="$(date -u +%F), $(nproc) CPUs ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)), load average before the run: $load_before"
