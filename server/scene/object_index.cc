@@ -4,56 +4,83 @@
 
 namespace hapticd::scene {
 
-ObjectIndex::ObjectIndex() : tree_(/*capacity=*/16, kFatMargin) {}
+ObjectIndex::ObjectIndex()
+    : parts_{std::make_shared<Part>(), std::make_shared<Part>(), std::make_shared<Part>()},
+      entries_(std::make_shared<std::vector<Entry>>()) {}
 
 bool ObjectIndex::IsBounded(const geometry::Aabb& bounds) {
   return !bounds.empty() && bounds.min.allFinite() && bounds.max.allFinite();
 }
 
-void ObjectIndex::Insert(int object, const geometry::Aabb& bounds) {
-  proxy_of_object_.push_back(-1);
-  Attach(object, bounds);
+template <typename T>
+T& ObjectIndex::Writable(std::shared_ptr<const T>& shared) {
+  if (shared.use_count() > 1) shared = std::make_shared<T>(*shared);
+  // every part and entry list is made non-const (make_shared<T>)
+  return const_cast<T&>(*shared);
 }
 
-void ObjectIndex::Move(int object, const geometry::Aabb& bounds, const geometry::Vector3& displacement) {
-  const int proxy = proxy_of_object_[object];
-  if (proxy >= 0 && IsBounded(bounds)) {
-    tree_.Move(proxy, bounds, displacement);
+void ObjectIndex::Insert(int object, const geometry::Aabb& bounds, bool kinematic) {
+  Writable(entries_).push_back({});
+  if (!kinematic && parts_[kRecent]->tree.size() >= kMaxRecent) MergeRecent();
+  Attach(object, bounds, kinematic ? kKinematic : kRecent);
+}
+
+void ObjectIndex::Move(int object, const geometry::Aabb& bounds, bool kinematic,
+                       const geometry::Vector3& displacement) {
+  const Entry entry = (*entries_)[object];
+  if (entry.proxy >= 0 && (entry.part == kKinematic) == kinematic && IsBounded(bounds)) {
+    WritablePart(entry.part).tree.Move(entry.proxy, bounds, displacement);
     return;
   }
-  // between bounded and unbounded (an update that changed the shape): out, then in
+  // to the other kind, or between bounded and unbounded (an update that changed the
+  // shape or the motion): out, then in
   Detach(object);
-  Attach(object, bounds);
+  Attach(object, bounds, kinematic ? kKinematic : kRecent);
 }
 
-void ObjectIndex::Attach(int object, const geometry::Aabb& bounds) {
+void ObjectIndex::Attach(int object, const geometry::Aabb& bounds, PartId part_id) {
+  Entry& entry = Writable(entries_)[object];
+  entry.part = part_id;
   if (!IsBounded(bounds)) {
-    proxy_of_object_[object] = -1;
+    entry.proxy = -1;
     unbounded_.push_back(object);
     return;
   }
-  const int proxy = tree_.Insert(bounds);
-  proxy_of_object_[object] = proxy;
-  if (proxy >= static_cast<int>(object_of_proxy_.size())) object_of_proxy_.resize(proxy + 1, -1);
-  object_of_proxy_[proxy] = object;
+  Part& part = WritablePart(part_id);
+  entry.proxy = part.tree.Insert(bounds);
+  if (entry.proxy >= static_cast<int>(part.object_of_proxy.size())) part.object_of_proxy.resize(entry.proxy + 1, -1);
+  part.object_of_proxy[entry.proxy] = object;
 }
 
 void ObjectIndex::Detach(int object) {
-  const int proxy = proxy_of_object_[object];
-  if (proxy >= 0) {
-    tree_.Remove(proxy);
-    object_of_proxy_[proxy] = -1;
+  const Entry entry = (*entries_)[object];
+  if (entry.proxy >= 0) {
+    Part& part = WritablePart(entry.part);
+    part.tree.Remove(entry.proxy);
+    part.object_of_proxy[entry.proxy] = -1;
   } else {
     std::erase(unbounded_, object);
   }
 }
 
+void ObjectIndex::MergeRecent() {
+  const std::shared_ptr<const Part> recent = std::move(parts_[kRecent]);
+  parts_[kRecent] = std::make_shared<Part>();
+  for (int proxy = 0; proxy < static_cast<int>(recent->object_of_proxy.size()); ++proxy) {
+    const int object = recent->object_of_proxy[proxy];
+    if (object >= 0) Attach(object, recent->tree.box(proxy), kStatic);
+  }
+}
+
 void ObjectIndex::Erase(int object) {
   Detach(object);
-  proxy_of_object_.erase(proxy_of_object_.begin() + object);
+  std::vector<Entry>& entries = Writable(entries_);
+  entries.erase(entries.begin() + object);
   // the objects after it move down one index
-  for (int& o : object_of_proxy_) {
-    if (o > object) --o;
+  for (auto& part : parts_) {
+    for (int& o : Writable(part).object_of_proxy) {
+      if (o > object) --o;
+    }
   }
   for (int& o : unbounded_) {
     if (o > object) --o;

@@ -2,14 +2,20 @@
 
 // The broad phase over a scene's objects: which objects' boxes (SceneObject::bounds_W)
 // overlap a query's box, at a cost that grows with the objects near it, not with the
-// scene. A dynamic AABB tree (geometry::DynamicAabbTree) holds the bounded objects;
-// objects without finite bounds (planes) are kept aside and always reported.
+// scene. Dynamic AABB trees (geometry::DynamicAabbTree) hold the bounded objects in
+// three parts: the kinematic objects; the static objects added lately (at most
+// kMaxRecent); and all other static objects. Objects without finite bounds (planes) are
+// kept aside and always reported.
 //
-// The scene builder keeps one index and updates it with each edit: a kinematic move
-// changes the tree only when the object leaves its fat box (kFatMargin), so moving a
-// hundred objects a millisecond does not rebuild anything. Each snapshot holds a copy,
-// read by any thread; ForEachNear never allocates.
+// The scene builder keeps one index and updates it with each edit; each snapshot holds
+// a copy. A copy shares the parts (copy on write), so publishing a snapshot copies none
+// of them, and the builder's next edit copies only the part it changes: moving the
+// kinematic objects copies their small tree; adding a static object copies the small
+// tree of recent ones, which joins the large one (one copy of it) every kMaxRecent adds.
+// A kinematic move changes its tree only when the object leaves its fat box
+// (kFatMargin). Read by any thread; ForEachNear never allocates.
 
+#include <memory>
 #include <vector>
 
 #include "server/geometry/aabb.h"
@@ -22,20 +28,23 @@ class ObjectIndex {
   // How far (m) a fat box reaches past its object's box: motions smaller than this
   // leave the tree alone.
   static constexpr double kFatMargin = 0.005;
+  // Static objects added since the large tree was last copied: the most before they join it.
+  static constexpr int kMaxRecent = 256;
 
   ObjectIndex();
 
   // Object indices are positions in the scene's object list. Insert appends: object
-  // must be the number of objects indexed so far.
-  void Insert(int object, const geometry::Aabb& bounds);
-  // New bounds for an object (after an update or a move); displacement is its last
-  // motion, which stretches the fat box ahead of it.
-  void Move(int object, const geometry::Aabb& bounds,
+  // must be the number of objects indexed so far. kinematic: the object moves (it goes
+  // to the kinematic tree).
+  void Insert(int object, const geometry::Aabb& bounds, bool kinematic);
+  // New bounds (or motion) for an object, after an update or a move; displacement is
+  // its last motion, which stretches the fat box ahead of it.
+  void Move(int object, const geometry::Aabb& bounds, bool kinematic,
             const geometry::Vector3& displacement = geometry::Vector3::Zero());
   // Removes an object; the objects after it move down one index, as in the list.
   void Erase(int object);
 
-  int size() const { return static_cast<int>(proxy_of_object_.size()); }
+  int size() const { return static_cast<int>(entries_->size()); }
 
   // Calls visit(object) for every object whose box overlaps box (closed boxes), each
   // once, in no particular order; objects without finite bounds always. visit returns
@@ -45,21 +54,40 @@ class ObjectIndex {
     for (const int object : unbounded_) {
       if (!visit(object)) return;
     }
-    tree_.ForEachOverlap(box, [&](int proxy) { return visit(object_of_proxy_[proxy]); });
+    bool going = true;
+    for (const auto& part : parts_) {
+      part->tree.ForEachOverlap(box, [&](int proxy) { return going = visit(part->object_of_proxy[proxy]); });
+      if (!going) return;
+    }
   }
 
  private:
-  static bool IsBounded(const geometry::Aabb& bounds);
-  // Puts object (whose proxy_of_object_ entry exists) in the tree or aside; Detach takes
-  // it out of either.
-  void Attach(int object, const geometry::Aabb& bounds);
-  void Detach(int object);
+  // One tree and the object each of its proxies (node indices) stands for.
+  struct Part {
+    geometry::DynamicAabbTree tree{/*capacity=*/16, kFatMargin};
+    std::vector<int> object_of_proxy;
+  };
+  enum PartId : int { kStatic, kRecent, kKinematic, kNumParts };
+  // Where an object is: its proxy in a part's tree, or aside (proxy -1).
+  struct Entry {
+    int proxy = -1;
+    PartId part = kStatic;
+  };
 
-  geometry::DynamicAabbTree tree_;
-  // object -> its proxy in tree_, or -1 when it is in unbounded_
-  std::vector<int> proxy_of_object_;
-  // proxy (a node index of tree_) -> object
-  std::vector<int> object_of_proxy_;
+  static bool IsBounded(const geometry::Aabb& bounds);
+  // The part or the entries, to be changed: copied first when a copy of the index
+  // shares them (only the builder's thread makes copies, so a count of one stays one).
+  template <typename T>
+  static T& Writable(std::shared_ptr<const T>& shared);
+  Part& WritablePart(PartId part) { return Writable(parts_[part]); }
+  // Puts object (whose entry exists) in part's tree or aside; Detach takes it out again.
+  void Attach(int object, const geometry::Aabb& bounds, PartId part);
+  void Detach(int object);
+  // The recent static objects join the large tree.
+  void MergeRecent();
+
+  std::shared_ptr<const Part> parts_[kNumParts];
+  std::shared_ptr<const std::vector<Entry>> entries_;  // by object
   std::vector<int> unbounded_;
 };
 

@@ -263,11 +263,8 @@ SceneBuilder::SceneBuilder(SceneSettings settings) : settings_(settings) {
   RequirePositive(settings_.tolerance, "settings.tolerance");
 }
 
-SceneBuilder::SceneBuilder(const SceneSnapshot& base)
-    : settings_(base.settings()), objects_(base.shared_objects()), index_(base.index()) {}
-
 const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
-  if (FindObjectNamed(objects_, spec.name) >= 0) throw SceneError(ObjectField(spec.name) + " already exists");
+  if (FindObject(spec.name) >= 0) throw SceneError(ObjectField(spec.name) + " already exists");
   if (objects_.size() >= settings_.budgets.max_objects) {
     throw SceneError("the scene has " + std::to_string(objects_.size()) + " objects; the budget is " +
                      std::to_string(settings_.budgets.max_objects) + " (max_objects)");
@@ -276,8 +273,11 @@ const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
   RequireTriangleBudget(objects_, object, nullptr, settings_.budgets);
   AttachRayBackend(spec, object);
   objects_.push_back(std::make_shared<SceneObject>(std::move(object)));
-  index_.Insert(num_objects() - 1, objects_.back()->bounds_W);
-  return *objects_.back();
+  const SceneObject& added = *objects_.back();
+  index_of_name_.emplace(added.name, num_objects() - 1);
+  index_.Insert(num_objects() - 1, added.bounds_W, added.motion == Motion::kKinematic);
+  if (added.motion == Motion::kKinematic) WritableKinematic().push_back(num_objects() - 1);
+  return added;
 }
 
 const SceneObject& SceneBuilder::Update(const ObjectSpec& spec) {
@@ -285,9 +285,19 @@ const SceneObject& SceneBuilder::Update(const ObjectSpec& spec) {
   SceneObject object = MakeObject(spec, settings_);
   RequireTriangleBudget(objects_, object, objects_[index].get(), settings_.budgets);
   AttachRayBackend(spec, object);
+  const bool was_kinematic = objects_[index]->motion == Motion::kKinematic;
   // a new object: the snapshots that hold the old one keep it
   objects_[index] = std::make_shared<SceneObject>(std::move(object));
-  index_.Move(index, objects_[index]->bounds_W);
+  const bool kinematic = objects_[index]->motion == Motion::kKinematic;
+  index_.Move(index, objects_[index]->bounds_W, kinematic);
+  if (kinematic != was_kinematic) {
+    std::vector<int>& list = WritableKinematic();
+    if (kinematic) {
+      list.insert(std::lower_bound(list.begin(), list.end(), index), index);
+    } else {
+      std::erase(list, index);
+    }
+  }
   return *objects_[index];
 }
 
@@ -311,8 +321,18 @@ void SceneBuilder::AttachRayBackend(const ObjectSpec& spec, SceneObject& object)
 
 void SceneBuilder::Remove(std::string_view name) {
   const int index = IndexOrThrow(name);
+  index_of_name_.erase(objects_[index]->name);
+  for (auto& [other, i] : index_of_name_) {
+    if (i > index) --i;
+  }
   objects_.erase(objects_.begin() + index);
   index_.Erase(index);
+  // the objects after it move down one index
+  std::vector<int>& list = WritableKinematic();
+  std::erase(list, index);
+  for (int& k : list) {
+    if (k > index) --k;
+  }
 }
 
 void SceneBuilder::SetMaterial(std::string_view name, const Material& material) {
@@ -336,15 +356,15 @@ void SceneBuilder::MoveKinematic(std::string_view name, const Pose& X_WB, const 
   SceneObject& target = Writable(index);
   const Vector3 before = target.X_WB.translation;
   Place(target, X_WB, v_WB, w_WB);
-  index_.Move(index, target.bounds_W, target.X_WB.translation - before);
+  index_.Move(index, target.bounds_W, true, target.X_WB.translation - before);
 }
 
 bool SceneBuilder::AdvanceKinematic(double dt) {
   if (!(dt >= 0) || !std::isfinite(dt)) return false;
   bool moved = false;
-  for (int index = 0; index < num_objects(); ++index) {
+  for (const int index : *kinematic_) {
     const SceneObject& current = *objects_[index];
-    if (current.motion != Motion::kKinematic || (current.v_WB.isZero(0) && current.w_WB.isZero(0))) continue;
+    if (current.v_WB.isZero(0) && current.w_WB.isZero(0)) continue;
     SceneObject& object = Writable(index);
     // back from the shape's frame S to the client's frame B, whose origin moves at v_WB
     const Pose& X_MS = object.representation.X_MS;
@@ -360,7 +380,7 @@ bool SceneBuilder::AdvanceKinematic(double dt) {
     X_WB.translation += v_WB * dt;
     const Vector3 before = object.X_WB.translation;
     Place(object, X_WB, v_WB, object.w_WB);
-    index_.Move(index, object.bounds_W, object.X_WB.translation - before);
+    index_.Move(index, object.bounds_W, true, object.X_WB.translation - before);
     moved = true;
   }
   return moved;
@@ -372,13 +392,24 @@ std::shared_ptr<const SceneSnapshot> SceneBuilder::Build(uint64_t version) const
     throw SceneError("version is " + std::to_string(version) +
                      "; snapshot versions run from 1 to 2^64 - 2");
   }
-  return std::make_shared<const SceneSnapshot>(objects_, index_, settings_, version);
+  return std::make_shared<const SceneSnapshot>(objects_, index_, kinematic_, settings_, version);
+}
+
+int SceneBuilder::FindObject(std::string_view name) const {
+  const auto found = index_of_name_.find(name);
+  return found == index_of_name_.end() ? -1 : found->second;
 }
 
 int SceneBuilder::IndexOrThrow(std::string_view name) const {
-  const int index = FindObjectNamed(objects_, name);
+  const int index = FindObject(name);
   if (index < 0) throw SceneError(ObjectField(name) + " does not exist");
   return index;
+}
+
+std::vector<int>& SceneBuilder::WritableKinematic() {
+  // shared with a snapshot: copy it first (as Writable below)
+  if (kinematic_.use_count() > 1) kinematic_ = std::make_shared<std::vector<int>>(*kinematic_);
+  return const_cast<std::vector<int>&>(*kinematic_);
 }
 
 SceneObject& SceneBuilder::Writable(int index) {

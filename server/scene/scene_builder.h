@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <variant>
 #include <vector>
 
@@ -58,8 +59,6 @@ struct ObjectSpec {
 class SceneBuilder {
  public:
   explicit SceneBuilder(SceneSettings settings = {});
-  // Starts from the objects of base (sharing their geometry).
-  explicit SceneBuilder(const SceneSnapshot& base);
 
   // Validates spec, chooses a mesh's representation, builds hulls and BVHs. Returns the
   // new object.
@@ -79,6 +78,8 @@ class SceneBuilder {
 
   const SceneSettings& settings() const { return settings_; }
   int num_objects() const { return static_cast<int>(objects_.size()); }
+  // Index of the object named name, or -1 (a hash lookup).
+  int FindObject(std::string_view name) const;
   // A snapshot of the objects so far (the geometry is shared, not copied).
   std::shared_ptr<const SceneSnapshot> Build(uint64_t version) const;
 
@@ -87,6 +88,8 @@ class SceneBuilder {
   int IndexOrThrow(std::string_view name) const;
   // Object index, to be changed: copied first when a snapshot shares it.
   SceneObject& Writable(int index);
+  // The kinematic list, to be changed: copied first when a snapshot shares it.
+  std::vector<int>& WritableKinematic();
   // Puts a mesh object on the Embree backend when its spec or the scene asks for it.
   void AttachRayBackend(const ObjectSpec& spec, SceneObject& object);
 
@@ -94,8 +97,16 @@ class SceneBuilder {
   // Shared with the snapshots built from them: an edit replaces or copies the objects it
   // changes and leaves the others shared.
   SharedObjects objects_;
+  // Each object's index by name.
+  struct NameHash {
+    using is_transparent = void;
+    size_t operator()(std::string_view name) const { return std::hash<std::string_view>{}(name); }
+  };
+  std::unordered_map<std::string, int, NameHash, std::equal_to<>> index_of_name_;
   // The broad phase over objects_, kept up to date by every edit.
   ObjectIndex index_;
+  // The kinematic objects' indices, ascending (shared with the snapshots).
+  KinematicList kinematic_ = std::make_shared<std::vector<int>>();
   // Created when the first mesh asks for the Embree backend; shared by its meshes.
   std::shared_ptr<const embree::EmbreeDevice> embree_device_;
 };

@@ -15,25 +15,36 @@ SharedObjects Share(const std::vector<SceneObject>& objects) {
 
 ObjectIndex IndexOf(const std::vector<SceneObject>& objects) {
   ObjectIndex index;
-  for (int i = 0; i < static_cast<int>(objects.size()); ++i) index.Insert(i, objects[i].bounds_W);
+  for (int i = 0; i < static_cast<int>(objects.size()); ++i) {
+    index.Insert(i, objects[i].bounds_W, objects[i].motion == Motion::kKinematic);
+  }
   return index;
+}
+
+KinematicList KinematicOf(const std::vector<SceneObject>& objects) {
+  auto kinematic = std::make_shared<std::vector<int>>();
+  for (int i = 0; i < static_cast<int>(objects.size()); ++i) {
+    if (objects[i].motion == Motion::kKinematic) kinematic->push_back(i);
+  }
+  return kinematic;
 }
 
 }  // namespace
 
-SceneSnapshot::SceneSnapshot(SharedObjects objects, ObjectIndex index, SceneSettings settings, uint64_t version)
-    : objects_(std::move(objects)), index_(std::move(index)), settings_(settings), version_(version) {
-  for (int i = 0; i < num_objects(); ++i) {
-    if (objects_[i]->motion == Motion::kKinematic) kinematic_.push_back(i);
-  }
-}
+SceneSnapshot::SceneSnapshot(SharedObjects objects, ObjectIndex index, KinematicList kinematic,
+                             SceneSettings settings, uint64_t version)
+    : objects_(std::move(objects)),
+      index_(std::move(index)),
+      kinematic_(std::move(kinematic)),
+      settings_(settings),
+      version_(version) {}
 
 SceneSnapshot::SceneSnapshot(const std::vector<SceneObject>& objects, SceneSettings settings, uint64_t version)
-    : SceneSnapshot(Share(objects), IndexOf(objects), settings, version) {}
+    : SceneSnapshot(Share(objects), IndexOf(objects), KinematicOf(objects), settings, version) {}
 
-int FindObjectNamed(const SharedObjects& objects, std::string_view name) {
-  for (int i = 0; i < static_cast<int>(objects.size()); ++i) {
-    if (objects[i]->name == name) return i;
+int SceneSnapshot::FindObject(std::string_view name) const {
+  for (int i = 0; i < num_objects(); ++i) {
+    if (objects_[i]->name == name) return i;
   }
   return -1;
 }

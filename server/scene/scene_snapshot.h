@@ -29,14 +29,16 @@ struct SceneSettings {
 // (SceneBuilder's copy-on-write relies on it).
 using SharedObjects = std::vector<std::shared_ptr<const SceneObject>>;
 
-// Index of the object named name in objects, or -1. A linear scan (issue 12: a name
-// index is still to come for scenes of thousands).
-int FindObjectNamed(const SharedObjects& objects, std::string_view name);
+// The kinematic objects' indices, ascending: kept by the builder, shared by snapshots.
+// Points to a non-const vector (the builder's copy-on-write relies on it).
+using KinematicList = std::shared_ptr<const std::vector<int>>;
 
 class SceneSnapshot {
  public:
-  // index: the broad phase over objects (the builder keeps one up to date).
-  SceneSnapshot(SharedObjects objects, ObjectIndex index, SceneSettings settings, uint64_t version);
+  // index: the broad phase over objects, kinematic: the kinematic objects (the builder
+  // keeps both up to date).
+  SceneSnapshot(SharedObjects objects, ObjectIndex index, KinematicList kinematic, SceneSettings settings,
+                uint64_t version);
   // Copies the objects and builds their index (for tests).
   SceneSnapshot(const std::vector<SceneObject>& objects, SceneSettings settings, uint64_t version);
 
@@ -46,11 +48,11 @@ class SceneSnapshot {
   const SharedObjects& shared_objects() const { return objects_; }
   int num_objects() const { return static_cast<int>(objects_.size()); }
   const SceneObject& object(int i) const { return *objects_[i]; }
-  // Index of the object named name, or -1.
-  int FindObject(std::string_view name) const { return FindObjectNamed(objects_, name); }
-  const ObjectIndex& index() const { return index_; }
+  // Index of the object named name, or -1: a linear scan (the builder, which every
+  // edit goes through, keeps a hash index).
+  int FindObject(std::string_view name) const;
   // The kinematic objects' indices, ascending.
-  std::span<const int> kinematic_objects() const { return kinematic_; }
+  std::span<const int> kinematic_objects() const { return *kinematic_; }
 
   // Calls visit(i) for each object i whose bounds_W overlap box, each once, in no
   // particular order (unbounded objects always), until a visit returns false.
@@ -65,7 +67,7 @@ class SceneSnapshot {
  private:
   SharedObjects objects_;
   ObjectIndex index_;
-  std::vector<int> kinematic_;
+  KinematicList kinematic_;
   SceneSettings settings_;
   uint64_t version_;
 };

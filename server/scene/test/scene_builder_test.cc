@@ -392,26 +392,40 @@ TEST(SceneBuilder, AddUpdateRemoveAndBuild) {
   EXPECT_EQ(builder.num_objects(), 1);
 }
 
-TEST(SceneBuilder, StartsFromASnapshotSharingItsGeometry) {
-  SceneBuilder first(SceneSettings{1e-3});
-  ObjectSpec hull = Sphere("hull");
-  hull.shape = ConvexSpec{{{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}};
-  first.Add(hull);
-  ObjectSpec torus = Sphere("torus");
-  torus.shape = MeshOf(geometry::MakeTorus(1, 0.25, 16, 8));
-  first.Add(torus);
-  const auto base = first.Build(1);
-
-  SceneBuilder second(*base);
-  EXPECT_EQ(second.settings().tolerance, 1e-3);
-  second.Add(Sphere("extra"));
-  const auto next = second.Build(2);
-  ASSERT_EQ(next->num_objects(), 3);
-  EXPECT_EQ(std::get<ConvexShape>(next->object(0).shape).hull,
-            std::get<ConvexShape>(base->object(0).shape).hull);
-  EXPECT_EQ(std::get<MeshShape>(next->object(1).shape).bvh, std::get<MeshShape>(base->object(1).shape).bvh);
-  EXPECT_EQ(next->object(1).representation.chosen, Representation::kMesh);
-  EXPECT_EQ(base->num_objects(), 2);
+// The builder's name index and the kinematic list it keeps agree with a scan of the
+// objects through adds, updates (static <-> kinematic), removals from the middle.
+TEST(SceneBuilder, NameIndexAndKinematicListFollowEveryEdit) {
+  SceneBuilder builder;
+  std::mt19937_64 random(5);
+  std::vector<std::string> names;
+  for (int step = 0; step < 600; ++step) {
+    const int op = names.size() < 10 ? 0 : static_cast<int>(random() % 3);
+    if (op == 0) {
+      ObjectSpec spec = Sphere("o" + std::to_string(step));
+      if (random() % 3 == 0) spec.motion = Motion::kKinematic;
+      builder.Add(spec);
+      names.push_back(spec.name);
+    } else if (op == 1) {
+      ObjectSpec spec = Sphere(names[random() % names.size()]);
+      if (random() % 2 == 0) spec.motion = Motion::kKinematic;
+      builder.Update(spec);
+    } else {
+      const size_t i = random() % names.size();
+      builder.Remove(names[i]);
+      names.erase(names.begin() + i);
+    }
+    if (step % 25 != 0) continue;
+    const auto snapshot = builder.Build(step + 1);
+    std::vector<int> kinematic;
+    for (int i = 0; i < snapshot->num_objects(); ++i) {
+      EXPECT_EQ(builder.FindObject(snapshot->object(i).name), i);
+      if (snapshot->object(i).motion == Motion::kKinematic) kinematic.push_back(i);
+    }
+    EXPECT_EQ(std::vector<int>(snapshot->kinematic_objects().begin(), snapshot->kinematic_objects().end()),
+              kinematic);
+    EXPECT_EQ(builder.FindObject("o-none"), -1);
+  }
+  for (const std::string& name : names) EXPECT_GE(builder.FindObject(name), 0);
 }
 
 // An edit copies only what it changes: the objects it does not touch are the very
