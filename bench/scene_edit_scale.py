@@ -3,8 +3,9 @@ another through the control channel of a real hapticd, 10,000 of them, timed per
 thousand, and then 100 set_material edits at the full size. Before snapshots shared
 their objects every edit copied the whole scene (3,000 adds took 1.8 s, 10,000 took
 13 s: quadratic); the ratio of the last thousand's time to the first's shows what is
-left. Prints a Markdown table (bench/run_scene_scale.sh adds it to
-bench/results/scene_scale.md)."""
+left. Then the same adds as one batch (Client.edit_scene, one request, one new
+version) on an emptied scene, against the same adds one request each. Prints a
+Markdown table (bench/run_scene_scale.sh adds it to bench/results/scene_scale.md)."""
 
 import argparse
 import json
@@ -51,6 +52,15 @@ def main() -> None:
             for _ in range(10):
                 client.scene()
             scene_ms = (time.perf_counter() - reads_started) * 100
+            client.clear_scene()
+            batch_started = time.perf_counter()
+            edits = hapticd.SceneEdits()
+            for i in range(args.objects):
+                edits.add_sphere(f"s{i}", 0.01, position=(i % 100 * 0.05, i // 100 % 100 * 0.05, i // 10000 * 0.05))
+            made = time.perf_counter()
+            client.edit_scene(edits)
+            batch_total = time.perf_counter() - batch_started
+            batch_sent = time.perf_counter() - made
     finally:
         server.terminate()
         server.wait(timeout=10)
@@ -63,6 +73,10 @@ def main() -> None:
           f"{per_thousand[-1] / per_thousand[0]:.2f} times the first. "
           f"set_material at {args.objects} objects: {edit_ms:.2f} ms per edit (mean of 100); "
           f"reading the scene back (client.scene()): {scene_ms:.1f} ms (mean of 10).")
+    print()
+    print(f"The same {args.objects} adds as one batch (Client.edit_scene): {batch_total:.2f} s "
+          f"({batch_sent:.2f} s of it the request, the rest making the edits in Python), "
+          f"{total / batch_total:.1f} times faster than one request each.")
 
 
 if __name__ == "__main__":

@@ -37,9 +37,12 @@ if [[ ! -x "$venv/bin/python" ]] || [[ "$(cat "$stamp" 2>/dev/null)" != "$want" 
 fi
 
 # The protocol's Python code, from the same .proto and the same protoc as the C++ code,
-# then the hapticd package itself (editable: clients/python/src is what runs).
+# then the hapticd package itself (editable: clients/python/src is what runs; installed
+# again when the environment's package is another checkout's).
 protoc -I "$repo/proto" --python_out="$repo/clients/python/src" --pyi_out="$repo/clients/python/src" \
   "$repo/proto/hapticd/v1/hapticd.proto"
-if ! "$venv/bin/python" -c 'import hapticd' 2>/dev/null; then
+if ! "$venv/bin/python" -c 'import hapticd, pathlib, sys
+sys.exit(pathlib.Path(hapticd.__file__).resolve().is_relative_to(pathlib.Path(sys.argv[1]).resolve()) is False)' \
+  "$repo/clients/python/src" 2>/dev/null; then
   "$venv/bin/pip" install --quiet --disable-pip-version-check --no-deps -e "$repo/clients/python"
 fi

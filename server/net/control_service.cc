@@ -114,6 +114,68 @@ v1::Reply ControlService::Handle(const v1::Request& request, ConnectionState& co
   }
 }
 
+namespace {
+
+void RequireObject(const scene::SceneBuilder& builder, const std::string& name, const std::string& field) {
+  if (builder.FindObject(name) < 0) {
+    throw RequestError(v1::Error::CODE_NOT_FOUND,
+                       fmt::format("{} is \"{}\"; the scene has no object of that name", field, name));
+  }
+}
+
+// A scene error names the object; in a batch, say which edit it came from.
+template <typename Apply>
+void NamingTheEdit(const std::string& where, Apply apply) {
+  try {
+    apply();
+  } catch (const scene::SceneError& e) {
+    if (where.starts_with("edit_scene.")) throw scene::SceneError(where + ": " + e.what());
+    throw;
+  }
+}
+
+void ApplyAdd(scene::SceneBuilder& builder, const v1::AddObject& add, const std::string& field) {
+  const scene::ObjectSpec spec = ReadObject(add.object(), field + ".object");
+  if (builder.FindObject(spec.name) >= 0) {
+    throw RequestError(v1::Error::CODE_ALREADY_EXISTS,
+                       fmt::format("{}.object.name is \"{}\"; an object of that name exists "
+                                   "(use update_object to replace it)",
+                                   field, spec.name));
+  }
+  NamingTheEdit(field, [&] { builder.Add(spec); });
+}
+
+void ApplyUpdate(scene::SceneBuilder& builder, const v1::UpdateObject& update,
+                                 const std::string& field) {
+  const scene::ObjectSpec spec = ReadObject(update.object(), field + ".object");
+  RequireObject(builder, spec.name, field + ".object.name");
+  NamingTheEdit(field, [&] { builder.Update(spec); });
+}
+
+void ApplyRemove(scene::SceneBuilder& builder, const v1::RemoveObject& remove,
+                                 const std::string& field) {
+  RequireObject(builder, remove.name(), field + ".name");
+  builder.Remove(remove.name());
+}
+
+void ApplySetMaterial(scene::SceneBuilder& builder, const v1::SetMaterial& set,
+                                      const std::string& field) {
+  RequireObject(builder, set.name(), field + ".name");
+  const scene::Material material = ReadMaterial(set.material(), field + ".material");
+  NamingTheEdit(field, [&] { builder.SetMaterial(set.name(), material); });
+}
+
+void ApplyMoveKinematic(scene::SceneBuilder& builder, const v1::MoveKinematic& move,
+                                        const std::string& field) {
+  RequireObject(builder, move.name(), field + ".name");
+  const scene::Pose pose = ReadPose(move.pose(), move.has_pose(), field + ".pose");
+  const Vector3 velocity = ReadVector(move.velocity(), field + ".velocity");
+  const Vector3 angular_velocity = ReadVector(move.angular_velocity(), field + ".angular_velocity");
+  NamingTheEdit(field, [&] { builder.MoveKinematic(move.name(), pose, velocity, angular_velocity); });
+}
+
+}  // namespace
+
 v1::Reply ControlService::Dispatch(const v1::Request& request, ConnectionState& connection) {
   using R = v1::Request;
   // Off loopback, nothing but a Hello with the token until one succeeded.
@@ -164,46 +226,27 @@ v1::Reply ControlService::Dispatch(const v1::Request& request, ConnectionState& 
     }
     case R::kOpenSession: return OpenSession(request.open_session(), connection);
     case R::kCloseSession: return CloseSession(request.close_session(), connection);
-    case R::kAddObject: {
-      const scene::ObjectSpec spec = ReadObject(request.add_object().object(), "add_object.object");
-      if (publisher_.current()->FindObject(spec.name) >= 0) {
-        throw RequestError(v1::Error::CODE_ALREADY_EXISTS,
-                           fmt::format("add_object.object.name is \"{}\"; an object of that name exists "
-                                       "(use update_object to replace it)",
-                                       spec.name));
-      }
-      builder_.Add(spec);
+    case R::kAddObject:
+      ApplyAdd(builder_, request.add_object(), "add_object");
       PublishScene();
       return Done();
-    }
-    case R::kUpdateObject: {
-      const scene::ObjectSpec spec = ReadObject(request.update_object().object(), "update_object.object");
-      RequireObject(spec.name, "update_object.object.name");
-      builder_.Update(spec);
+    case R::kUpdateObject:
+      ApplyUpdate(builder_, request.update_object(), "update_object");
       PublishScene();
       return Done();
-    }
     case R::kRemoveObject:
-      RequireObject(request.remove_object().name(), "remove_object.name");
-      builder_.Remove(request.remove_object().name());
+      ApplyRemove(builder_, request.remove_object(), "remove_object");
       PublishScene();
       return Done();
-    case R::kSetMaterial: {
-      const auto& set = request.set_material();
-      RequireObject(set.name(), "set_material.name");
-      builder_.SetMaterial(set.name(), ReadMaterial(set.material(), "set_material.material"));
+    case R::kSetMaterial:
+      ApplySetMaterial(builder_, request.set_material(), "set_material");
       PublishScene();
       return Done();
-    }
-    case R::kMoveKinematic: {
-      const auto& move = request.move_kinematic();
-      RequireObject(move.name(), "move_kinematic.name");
-      builder_.MoveKinematic(move.name(), ReadPose(move.pose(), move.has_pose(), "move_kinematic.pose"),
-                             ReadVector(move.velocity(), "move_kinematic.velocity"),
-                             ReadVector(move.angular_velocity(), "move_kinematic.angular_velocity"));
+    case R::kMoveKinematic:
+      ApplyMoveKinematic(builder_, request.move_kinematic(), "move_kinematic");
       PublishScene();
       return Done();
-    }
+    case R::kEditScene: return EditScene(request.edit_scene());
     case R::kClearScene:
       builder_ = scene::SceneBuilder(builder_.settings());
       PublishScene();
@@ -254,11 +297,34 @@ v1::Reply ControlService::Dispatch(const v1::Request& request, ConnectionState& 
   throw BadRequest("request has no body: it names none of the requests hapticd.v1 defines");
 }
 
-void ControlService::RequireObject(const std::string& name, const std::string& field) const {
-  if (publisher_.current()->FindObject(name) < 0) {
-    throw RequestError(v1::Error::CODE_NOT_FOUND,
-                       fmt::format("{} is \"{}\"; the scene has no object of that name", field, name));
+v1::Reply ControlService::EditScene(const v1::EditScene& edit) {
+  if (edit.edits_size() > kMaxEditsPerBatch) {
+    throw BadRequest(fmt::format("edit_scene has {} edits; at most {} are served in one request",
+                                 edit.edits_size(), kMaxEditsPerBatch));
   }
+  // on a copy, so that a refused edit leaves the scene as it was (the copy shares the
+  // objects and the broad phase; what an edit changes is copied on write)
+  scene::SceneBuilder staged = builder_;
+  for (int i = 0; i < edit.edits_size(); ++i) {
+    const v1::SceneEdit& one = edit.edits(i);
+    const std::string field = fmt::format("edit_scene.edits[{}].", i);
+    switch (one.edit_case()) {
+      case v1::SceneEdit::kAddObject: ApplyAdd(staged, one.add_object(), field + "add_object"); break;
+      case v1::SceneEdit::kUpdateObject: ApplyUpdate(staged, one.update_object(), field + "update_object"); break;
+      case v1::SceneEdit::kRemoveObject: ApplyRemove(staged, one.remove_object(), field + "remove_object"); break;
+      case v1::SceneEdit::kSetMaterial: ApplySetMaterial(staged, one.set_material(), field + "set_material"); break;
+      case v1::SceneEdit::kMoveKinematic:
+        ApplyMoveKinematic(staged, one.move_kinematic(), field + "move_kinematic");
+        break;
+      case v1::SceneEdit::EDIT_NOT_SET:
+        throw BadRequest(fmt::format("edit_scene.edits[{}] is empty; it needs one of add_object, "
+                                     "update_object, remove_object, set_material, move_kinematic",
+                                     i));
+    }
+  }
+  builder_ = std::move(staged);
+  PublishScene();
+  return Done();
 }
 
 void ControlService::PublishScene() {

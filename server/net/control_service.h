@@ -59,6 +59,9 @@ struct ServiceOptions {
   int64_t tick_work_budget = force::kDefaultTickWorkBudget;
 };
 
+// The most edits one EditScene may hold.
+inline constexpr int kMaxEditsPerBatch = 100'000;
+
 class ControlService {
  public:
   // The service serves the scene `initial` (published as version 1 by the caller).
@@ -95,7 +98,8 @@ class ControlService {
   v1::Reply FindContacts(const v1::FindContacts& query);
   v1::Reply Subscribe(uint64_t id, const v1::Subscribe& subscribe, ConnectionState& connection);
   v1::Reply Done();
-  void RequireObject(const std::string& name, const std::string& field) const;
+  // Applies every edit to a copy of the builder, then keeps the copy and publishes.
+  v1::Reply EditScene(const v1::EditScene& edit);
   void WriteCounters(v1::ServerCounters* out) const;
   void WriteSession(uint32_t id, const SessionTelemetrySample& sample, v1::SessionTelemetry* out) const;
 

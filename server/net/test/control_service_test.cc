@@ -64,6 +64,71 @@ TEST(ControlService, EditsPublishNewVersionsAndNameTheirErrors) {
   EXPECT_EQ(harness.publisher.current()->version(), 3u);
 }
 
+// A batch applies all its edits as one new version, or, when one is refused, none of
+// them, naming the edit by its index.
+TEST(ControlService, ABatchOfEditsIsAppliedAsOne) {
+  Harness harness;
+  const int before = harness.publisher.current()->num_objects();
+  v1::Request batch;
+  batch.set_request_id(12);
+  v1::EditScene* edits = batch.mutable_edit_scene();
+  for (int i = 0; i < 50; ++i) *edits->add_edits()->mutable_add_object()->mutable_object() = MakeSphere(fmt::format("s{}", i), 0.01, 0.1 * i);
+  v1::Object moving = MakeSphere("mover", 0.02, 0);
+  moving.set_kinematic(true);
+  *edits->add_edits()->mutable_add_object()->mutable_object() = moving;
+  v1::MoveKinematic* move = edits->add_edits()->mutable_move_kinematic();
+  move->set_name("mover");
+  move->mutable_pose()->mutable_position()->set_z(0.5);
+  move->mutable_pose()->mutable_orientation()->set_w(1);
+  edits->add_edits()->mutable_remove_object()->set_name("s7");
+  v1::SetMaterial* set = edits->add_edits()->mutable_set_material();
+  set->set_name("s8");
+  set->mutable_material()->set_stiffness(123);
+  const v1::Reply done = harness.Call(batch);
+  ASSERT_TRUE(done.has_done()) << done.DebugString();
+  EXPECT_EQ(done.done().scene_version(), 2u);
+  const auto scene = harness.publisher.current();
+  EXPECT_EQ(scene->version(), 2u);
+  EXPECT_EQ(scene->num_objects(), before + 50);
+  EXPECT_EQ(scene->FindObject("s7"), -1);
+  EXPECT_EQ(scene->object(scene->FindObject("s8")).material.stiffness, 123);
+  EXPECT_EQ(scene->object(scene->FindObject("mover")).X_WB.translation.z(), 0.5);
+
+  // one bad edit: nothing changes, and the error says which
+  v1::Request bad;
+  v1::EditScene* more = bad.mutable_edit_scene();
+  *more->add_edits()->mutable_add_object()->mutable_object() = MakeSphere("t0", 0.01, 0);
+  *more->add_edits()->mutable_add_object()->mutable_object() = MakeSphere("t1", -0.01, 0);
+  ExpectError(harness.Call(bad), v1::Error::CODE_BAD_REQUEST,
+              "edit_scene.edits[1].add_object: objects[t1].shape.radius is -0.01; it must be in (0, 1000] m");
+  more->mutable_edits(1)->mutable_add_object()->mutable_object()->set_name("t0");
+  more->mutable_edits(1)->mutable_add_object()->mutable_object()->mutable_shape()->mutable_sphere()->set_radius(0.01);
+  ExpectError(harness.Call(bad), v1::Error::CODE_ALREADY_EXISTS,
+              "edit_scene.edits[1].add_object.object.name is \"t0\"; an object of that name exists (use "
+              "update_object to replace it)");
+  more->mutable_edits(1)->Clear();
+  more->mutable_edits(1)->mutable_remove_object()->set_name("s7");
+  ExpectError(harness.Call(bad), v1::Error::CODE_NOT_FOUND,
+              "edit_scene.edits[1].remove_object.name is \"s7\"; the scene has no object of that name");
+  more->mutable_edits(1)->Clear();
+  ExpectError(harness.Call(bad), v1::Error::CODE_BAD_REQUEST,
+              "edit_scene.edits[1] is empty; it needs one of add_object, update_object, remove_object, "
+              "set_material, move_kinematic");
+  EXPECT_EQ(harness.publisher.current()->version(), 2u);
+  EXPECT_EQ(harness.publisher.current()->FindObject("t0"), -1);
+  EXPECT_EQ(harness.publisher.current()->num_objects(), before + 50);
+
+  // the bound, named
+  v1::Request huge;
+  for (int i = 0; i <= kMaxEditsPerBatch; ++i) huge.mutable_edit_scene()->add_edits()->mutable_remove_object()->set_name("x");
+  ExpectError(harness.Call(huge), v1::Error::CODE_BAD_REQUEST,
+              "edit_scene has 100001 edits; at most 100000 are served in one request");
+  // an empty batch is a no-op that still publishes a version
+  v1::Request empty;
+  empty.mutable_edit_scene();
+  EXPECT_EQ(harness.Call(empty).done().scene_version(), 3u);
+}
+
 TEST(ControlService, MeshesArriveAsFlatArraysAndAreChecked) {
   Harness harness;
   v1::Object tetra;

@@ -51,10 +51,12 @@ from hapticd.results import (
     Stats,
     Telemetry,
 )
+from hapticd.scene_edits import MAX_EDITS_PER_BATCH, SceneEdits
 from hapticd.scene_files import read_mesh_file, read_scene_file
 from hapticd.sim_device import DeviceSpec, HandSpec, SimAdmittanceDevice, SimImpedanceDevice
 
 __all__ = [
+    "MAX_EDITS_PER_BATCH",
     "Box",
     "Capsule",
     "Client",
@@ -80,6 +82,7 @@ __all__ = [
     "RayHits",
     "RemoteError",
     "RttSummary",
+    "SceneEdits",
     "SceneInfo",
     "ServerCounters",
     "SessionEnded",

@@ -16,12 +16,11 @@ opened and has not closed.
 from __future__ import annotations
 
 import collections
-import difflib
 import functools
 import ssl
 import threading
-from collections.abc import Callable, Iterable, Iterator, Mapping
-from typing import Any, TypedDict, TypeVar, Unpack, cast
+from collections.abc import Callable, Iterable, Iterator
+from typing import TypeVar, cast
 
 import numpy as np
 from google.protobuf.message import Message
@@ -33,18 +32,7 @@ from hapticd._closing import ClosesOnExit
 from hapticd._connection import Connection, parse_address, remote_error
 from hapticd.errors import HapticdError, LocalError, ProtocolError, RemoteError
 from hapticd.objects import (
-    Box,
-    Capsule,
-    Convex,
     Material,
-    Mesh,
-    ObjectSpec,
-    Plane,
-    Pose,
-    Shape,
-    Sphere,
-    check_material_fields,
-    material_from,
 )
 from hapticd.results import (
     ClosestPoint,
@@ -56,7 +44,7 @@ from hapticd.results import (
     Stats,
     Telemetry,
 )
-from hapticd.scene_files import read_mesh_file
+from hapticd.scene_edits import SceneEditor, SceneEdits
 from hapticd.v1 import hapticd_pb2 as pb
 
 PROTOCOL_VERSION = 1
@@ -73,44 +61,6 @@ CLOSED_SESSIONS_REMEMBERED = 1024
 
 ResultT = TypeVar("ResultT")
 BodyT = TypeVar("BodyT", bound=Message)
-
-
-class Placement(TypedDict, total=False):
-    """Where an added object goes and how it feels: position (m, (3,)), rotation (a
-    quaternion (w, x, y, z) or a 3x3 matrix; None: identity), material (a Material or a
-    dict of its fields; None: the server's default, stiffness DEFAULT_STIFFNESS =
-    1000 N/m), kinematic (a bool) with its velocity (m/s) and angular_velocity (rad/s),
-    and the request's timeout_s. Any other keyword is refused (LocalError naming it)."""
-
-    position: ArrayLike
-    rotation: ArrayLike | None
-    material: Material | dict[str, Any] | None
-    kinematic: bool
-    velocity: ArrayLike
-    angular_velocity: ArrayLike
-    timeout_s: float | None
-
-
-PLACEMENT_KEYWORDS = tuple(Placement.__annotations__)
-
-
-def _check_position(value: ArrayLike) -> check.FloatArray:
-    """A position to send: finite, shape (3,), each coordinate within the server's range."""
-    return check.coordinates(check.vector3(value, "position"), "position")
-
-
-def _check_keywords(call: str, given: Mapping[str, object], own: tuple[str, ...] = ()) -> None:
-    """LocalError naming the first keyword of given that is not a Placement's."""
-    unknown = [key for key in given if key not in PLACEMENT_KEYWORDS]
-    if not unknown:
-        return
-    takes = own + PLACEMENT_KEYWORDS
-    guess = difflib.get_close_matches(unknown[0], takes, n=1)
-    hint = f" (did you mean {guess[0]!r}?)" if guess else ""
-    raise LocalError(
-        f"{call} got an unknown keyword argument {unknown[0]!r}{hint}; it takes "
-        f"{', '.join(takes)}"
-    )
 
 
 def connect(
@@ -162,9 +112,10 @@ def _decoded(convert: Callable[[BodyT], ResultT], body: BodyT) -> ResultT:
         raise ProtocolError(f"the server sent an invalid {body.DESCRIPTOR.name}: {exc}") from exc
 
 
-class Client(ClosesOnExit):
+class Client(ClosesOnExit, SceneEditor):
     """A connection to the control channel; made by connect(). Use as a context manager
-    or call close()."""
+    or call close(). Its scene edits (SceneEditor's methods) each return the new scene
+    version."""
 
     def __init__(
         self, connection: Connection, timeout_s: float, server_name: str, udp_endpoint: str
@@ -215,124 +166,6 @@ class Client(ClosesOnExit):
     def _edit(self, body_name: str, body: Message, timeout_s: float | None) -> int:
         return _body(self._call(body_name, body, timeout_s), "done", pb.Done).scene_version
 
-    # ---- scene edits: each returns the new scene version ----
-
-    def add_object(self, spec: ObjectSpec, *, timeout_s: float | None = None) -> int:
-        """Adds an object; RemoteError ALREADY_EXISTS when the name is taken."""
-        if not isinstance(spec, ObjectSpec):
-            raise LocalError(f"spec is {spec!r}; it must be an ObjectSpec")
-        message = pb.AddObject()
-        codec.fill_object(message.object, spec)
-        return self._edit("add_object", message, timeout_s)
-
-    def _add(self, name: str, shape: Shape, placement: Placement) -> int:
-        timeout_s = placement.pop("timeout_s", None)
-        return self.add_object(_spec(name, shape, placement), timeout_s=timeout_s)
-
-    def add_sphere(self, name: str, radius: float, **placement: Unpack[Placement]) -> int:
-        """Adds a sphere of radius (m) centred at position."""
-        _check_keywords("add_sphere", placement)
-        return self._add(name, Sphere(radius), placement)
-
-    def add_box(self, name: str, half_extents: ArrayLike, **placement: Unpack[Placement]) -> int:
-        """Adds a box of half_extents (m, (3,), along its axes) centred at position."""
-        _check_keywords("add_box", placement)
-        return self._add(name, Box(check.as_floats(half_extents, "half_extents")), placement)
-
-    def add_capsule(
-        self, name: str, radius: float, half_length: float, **placement: Unpack[Placement]
-    ) -> int:
-        """Adds a capsule: radius (m) around a segment of half_length (m) along its z axis."""
-        _check_keywords("add_capsule", placement)
-        return self._add(name, Capsule(radius, half_length), placement)
-
-    def add_plane(
-        self, name: str, normal: ArrayLike | None = None, **placement: Unpack[Placement]
-    ) -> int:
-        """Adds the half-space behind a plane through position: its outward normal is the
-        body's z axis, or `normal` (non-zero, (3,)) when given instead of a rotation."""
-        _check_keywords("add_plane", placement, ("normal",))
-        if normal is not None:
-            if placement.get("rotation") is not None:
-                raise LocalError("give add_plane a normal or a rotation, not both")
-            placement["rotation"] = _rotation_to_z(check.nonzero_vector3(normal, "normal"))
-        return self._add(name, Plane(), placement)
-
-    def add_convex(self, name: str, points: ArrayLike, **placement: Unpack[Placement]) -> int:
-        """Adds the convex hull of points (m, (N, 3), N >= 4, in the body frame)."""
-        _check_keywords("add_convex", placement)
-        return self._add(name, Convex(check.as_floats(points, "points")), placement)
-
-    def add_mesh(
-        self,
-        name: str,
-        vertices: ArrayLike,
-        triangles: ArrayLike,
-        representation: str = "auto",
-        ray_backend: str = "default",
-        **placement: Unpack[Placement],
-    ) -> int:
-        """Adds a triangle mesh: vertices (m, (N, 3)) and triangles ((M, 3) integer vertex
-        indices, counter-clockwise seen from outside), rendered as `representation`
-        ("auto": the cheapest within the scene's tolerance, or sphere, box, capsule,
-        convex, mesh); kept as a mesh, its queries run on `ray_backend` ("default": the
-        server's, "native" or "embree")."""
-        _check_keywords("add_mesh", placement, ("representation", "ray_backend"))
-        mesh = Mesh(
-            check.as_floats(vertices, "vertices"),
-            check.as_indices(triangles, "triangles"),
-            representation,
-            ray_backend,
-        )
-        return self._add(name, mesh, placement)
-
-    def add_mesh_file(
-        self,
-        name: str,
-        path: str,
-        representation: str = "auto",
-        scale: float = 1.0,
-        **placement: Unpack[Placement],
-    ) -> int:
-        """Adds the mesh of an OBJ, STL or PLY file, its coordinates times scale (e.g.
-        0.001 for a file in millimetres)."""
-        _check_keywords("add_mesh_file", placement, ("representation", "scale"))
-        scale = check.positive(scale, "scale")
-        vertices, triangles = read_mesh_file(path)
-        return self._add(name, Mesh(vertices * scale, triangles, representation), placement)
-
-    def update_object(self, spec: ObjectSpec, *, timeout_s: float | None = None) -> int:
-        """Replaces the object of spec's name with spec; RemoteError NOT_FOUND if none."""
-        if not isinstance(spec, ObjectSpec):
-            raise LocalError(f"spec is {spec!r}; it must be an ObjectSpec")
-        message = pb.UpdateObject()
-        codec.fill_object(message.object, spec)
-        return self._edit("update_object", message, timeout_s)
-
-    def remove_object(self, name: str, *, timeout_s: float | None = None) -> int:
-        """Removes the object called name; RemoteError NOT_FOUND if there is none."""
-        message = pb.RemoveObject(name=check.object_name(name))
-        return self._edit("remove_object", message, timeout_s)
-
-    def set_material(
-        self, name: str, material: Material | dict[str, Any], *, timeout_s: float | None = None
-    ) -> int:
-        """Changes the material of the object called name. A dict changes only the
-        fields it names, e.g. {"damping": 3}: the others keep the object's values, read
-        from the server's scene first (two requests, so an edit another client makes in
-        between is overwritten). A Material replaces the whole material. LocalError for
-        a field that is not a Material's (named); RemoteError NOT_FOUND when there is no
-        such object."""
-        check.object_name(name)
-        if isinstance(material, dict):
-            changes = check_material_fields(material)
-            current = self._current_material(name, timeout_s)
-            new = material_from(changes) if current is None else current.updated(changes)
-        else:
-            new = material_from(material)
-        message = pb.SetMaterial(name=name, material=codec.material_message(new))
-        return self._edit("set_material", message, timeout_s)
-
     def _current_material(self, name: str, timeout_s: float | None) -> Material | None:
         """The material of the object called name as the server holds it (None: none)."""
         for info in self.scene(timeout_s=timeout_s).objects:
@@ -340,33 +173,14 @@ class Client(ClosesOnExit):
                 return info.material
         return None
 
-    def move_kinematic(
-        self,
-        name: str,
-        position: ArrayLike,
-        rotation: ArrayLike | None = None,
-        velocity: ArrayLike = (0, 0, 0),
-        angular_velocity: ArrayLike = (0, 0, 0),
-        *,
-        timeout_s: float | None = None,
-    ) -> int:
-        """Moves a kinematic object to a pose, with its velocities from now on (m/s,
-        rad/s); RemoteError if it is static."""
-        message = pb.MoveKinematic(
-            name=check.object_name(name),
-            pose=codec.pose_message(Pose.of(_check_position(position), rotation)),
-            velocity=codec.vec3(
-                check.norm_limited(check.vector3(velocity, "velocity"), "velocity", "speed")
-            ),
-            angular_velocity=codec.vec3(
-                check.norm_limited(
-                    check.vector3(angular_velocity, "angular_velocity"),
-                    "angular_velocity",
-                    "angular_speed",
-                )
-            ),
-        )
-        return self._edit("move_kinematic", message, timeout_s)
+    def edit_scene(self, edits: SceneEdits, *, timeout_s: float | None = None) -> int:
+        """Applies a batch of edits (SceneEdits) in one request, as one: all of them, as
+        one new scene version (returned), or, when the server refuses one, none of them
+        (RemoteError naming the edit, "edit_scene.edits[3]..."). At most
+        MAX_EDITS_PER_BATCH edits."""
+        if not isinstance(edits, SceneEdits):
+            raise LocalError(f"edits is {edits!r}; it must be a SceneEdits")
+        return self._edit("edit_scene", edits.message(), timeout_s)
 
     def clear_scene(self, *, timeout_s: float | None = None) -> int:
         """Removes every object."""
@@ -679,30 +493,3 @@ def _telemetry(reply: pb.Reply) -> Telemetry:
     if reply.WhichOneof("body") == "error":
         raise remote_error(reply.error, "subscribe")
     return _decoded(codec.telemetry_from, _body(reply, "telemetry", pb.Telemetry))
-
-
-def _spec(name: str, shape: Shape, placement: Placement) -> ObjectSpec:
-    """The ObjectSpec an add_* call describes."""
-    return ObjectSpec(
-        name=name,
-        shape=shape,
-        pose=Pose.of(placement.get("position", (0, 0, 0)), placement.get("rotation")),
-        material=material_from(placement.get("material")),
-        kinematic=check.flag(placement.get("kinematic", False), "kinematic"),
-        velocity=check.as_floats(placement.get("velocity", (0, 0, 0)), "velocity"),
-        angular_velocity=check.as_floats(
-            placement.get("angular_velocity", (0, 0, 0)), "angular_velocity"
-        ),
-    )
-
-
-def _rotation_to_z(normal: check.FloatArray) -> check.FloatArray:
-    """A rotation (quaternion w, x, y, z) taking the z axis onto normal's direction (the
-    shortest arc; for normal along -z, half a turn about x)."""
-    n = normal / np.linalg.norm(normal)
-    w = 1.0 + n[2]
-    if w < 1e-12:
-        return np.array([0.0, 1.0, 0.0, 0.0])
-    q = np.array([w, -n[1], n[0], 0.0])
-    result: check.FloatArray = q / np.linalg.norm(q)
-    return result
