@@ -7,6 +7,7 @@ scenes."""
 
 import json
 import math
+import pathlib
 import socket
 import ssl
 import struct
@@ -424,3 +425,32 @@ def test_tls_on_the_control_channel(bin_dir, tmp_path):
         with pytest.raises((hapticd.ConnectionClosed, hapticd.ProtocolError, hapticd.Timeout)):
             hapticd.connect(tls_server.tcp, timeout_s=2)
         assert tls_server.alive
+
+
+def main_thread_wakeups(pid):
+    """Voluntary context switches of the server's main (control) thread so far."""
+    status = pathlib.Path(f"/proc/{pid}/task/{pid}/status").read_text()
+    return int(status.split("voluntary_ctxt_switches:")[1].split()[0])
+
+
+def test_a_scene_at_rest_does_not_wake_the_control_thread(bin_dir):
+    # the kinematics timer runs only while something moves: at rest the control thread
+    # wakes for its 50 ms housekeeping and little else (the timer alone was 1,000 a second)
+    with running_server(bin_dir, "--log-level", "warning") as server:
+        with hapticd.connect(server.tcp, timeout_s=10) as client:
+            client.add_sphere("puck", 0.01, position=(0.2, 0.2, 0.01), kinematic=True)
+            time.sleep(0.2)
+            before = main_thread_wakeups(server.process.pid)
+            time.sleep(1.0)
+            assert main_thread_wakeups(server.process.pid) - before < 300
+            # set moving, the puck moves; stopped, the thread rests again
+            client.move_kinematic("puck", (0.2, 0.2, 0.01), velocity=(0.1, 0, 0))
+            time.sleep(0.2)
+            assert client.scene().object("puck").pose.position[0] > 0.205
+            client.move_kinematic("puck", (0.3, 0.2, 0.01))
+            version = client.scene().version
+            time.sleep(0.2)
+            before = main_thread_wakeups(server.process.pid)
+            time.sleep(1.0)
+            assert main_thread_wakeups(server.process.pid) - before < 300
+            assert client.scene().version == version

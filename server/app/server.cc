@@ -82,8 +82,17 @@ struct Server::Impl {
     return control_options;
   }
 
-  // Every millisecond: kinematic objects move by their velocities (a new snapshot only
-  // when one moves), over the time that really passed.
+  // Every millisecond while some kinematic object has a velocity: they move by it (a
+  // new snapshot each time), over the time that really passed. A scene at rest wakes
+  // nobody; the edit that sets something moving starts the timer again.
+  void StartKinematics() {
+    if (kinematics_running || stopping) return;
+    kinematics_running = true;
+    last_kinematics = std::chrono::steady_clock::now();
+    kinematics.expires_at(last_kinematics);
+    MoveKinematics();
+  }
+
   void MoveKinematics() {
     kinematics.expires_at(kinematics.expiry() + 1ms);
     kinematics.async_wait([this](std::error_code error) {
@@ -92,6 +101,10 @@ struct Server::Impl {
       const double dt = std::chrono::duration<double>(now - last_kinematics).count();
       last_kinematics = now;
       service.AdvanceKinematic(dt);
+      if (!service.scene_moving()) {
+        kinematics_running = false;
+        return;
+      }
       MoveKinematics();
     });
   }
@@ -130,6 +143,7 @@ struct Server::Impl {
   asio::steady_timer housekeeping;
   asio::steady_timer kinematics;
   std::chrono::steady_clock::time_point last_kinematics;
+  bool kinematics_running = false;
   asio::signal_set signals;
   // Set on SIGINT/SIGTERM: a timer whose handler was already due when it was cancelled
   // must not arm itself again, or the io_context would never run out of work.
@@ -171,9 +185,8 @@ void Server::Run() {
   }
   impl.control.Start();
   impl.Housekeep();
-  impl.last_kinematics = std::chrono::steady_clock::now();
-  impl.kinematics.expires_at(impl.last_kinematics);
-  impl.MoveKinematics();
+  impl.service.OnSceneMoving([&impl] { impl.StartKinematics(); });
+  if (impl.service.scene_moving()) impl.StartKinematics();
   Log(LogLevel::kInfo, "serving {} ({} objects, up to {} sessions)", EndpointsJson(),
       impl.publisher.current()->num_objects(), impl.sessions.capacity());
   impl.context.run();

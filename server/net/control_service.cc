@@ -329,6 +329,7 @@ v1::Reply ControlService::EditScene(const v1::EditScene& edit) {
 
 void ControlService::PublishScene() {
   publisher_.Publish(builder_.Build(++scene_version_));
+  if (on_scene_moving_ && builder_.HasMovingObjects()) on_scene_moving_();
   Log(LogLevel::kDebug, "scene version {} published ({} objects)", scene_version_, builder_.num_objects());
 }
 

@@ -5,6 +5,7 @@
 // builder and publish it; the realtime thread picks it up at its next batch.
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -81,8 +82,13 @@ class ControlService {
   // The connection closed: its sessions live on, closable from now on only with their key.
   void ConnectionClosed(uint64_t connection_id);
   // Moves kinematic objects by their velocities over dt (s) and publishes the scene when
-  // any moved. Call each millisecond (the server's kinematics timer).
+  // any moved. Call each millisecond while scene_moving() (the server's kinematics timer).
   void AdvanceKinematic(double dt);
+  // Whether some kinematic object has a velocity.
+  bool scene_moving() const { return builder_.HasMovingObjects(); }
+  // start() is called after each edit that leaves the scene moving (the server starts its
+  // kinematics timer, if it is not running).
+  void OnSceneMoving(std::function<void()> start) { on_scene_moving_ = std::move(start); }
 
   const ServiceOptions& options() const { return options_; }
   // Control thread only: the transport counts its connections here.
@@ -104,6 +110,7 @@ class ControlService {
   void WriteSession(uint32_t id, const SessionTelemetrySample& sample, v1::SessionTelemetry* out) const;
 
   scene::SceneBuilder builder_;
+  std::function<void()> on_scene_moving_;
   scene::SnapshotPublisher& publisher_;
   SessionTable& sessions_;
   const RealtimeCounters& realtime_;

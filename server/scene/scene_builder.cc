@@ -386,6 +386,12 @@ bool SceneBuilder::AdvanceKinematic(double dt) {
   return moved;
 }
 
+bool SceneBuilder::HasMovingObjects() const {
+  return std::any_of(kinematic_->begin(), kinematic_->end(), [&](int index) {
+    return !objects_[index]->v_WB.isZero(0) || !objects_[index]->w_WB.isZero(0);
+  });
+}
+
 std::shared_ptr<const SceneSnapshot> SceneBuilder::Build(uint64_t version) const {
   // 0 marks an idle reader and ~0 a free one in the publisher's slots
   if (version == 0 || version == ~uint64_t{0}) {

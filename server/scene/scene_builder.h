@@ -75,6 +75,8 @@ class SceneBuilder {
   // motion at constant v_WB and w_WB of the frame its spec was given in. Returns
   // whether anything moved (some kinematic object has a non-zero velocity).
   bool AdvanceKinematic(double dt);
+  // Whether some kinematic object has a non-zero velocity (AdvanceKinematic would move it).
+  bool HasMovingObjects() const;
 
   const SceneSettings& settings() const { return settings_; }
   int num_objects() const { return static_cast<int>(objects_.size()); }
