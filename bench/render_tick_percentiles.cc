@@ -229,12 +229,12 @@ int main(int argc, char** argv) {
     for (const Method& m : methods) {
       if (only_method != nullptr && std::strcmp(only_method, m.name)) continue;
       const auto [gathered, direct] = Measure(*scene, m, ticks, gathered_only);
-      if (m.method == force::ForceMethod::kPenalty || gathered_only) {
+      if (m.method == force::ForceMethod::kPenalty) {
         row(target, m, "one per tick", gathered, false);
         continue;
       }
       row(target, m, "gathered once a tick", gathered, true);
-      row(target, m, "direct (before)", direct, false);
+      if (!gathered_only) row(target, m, "direct (before)", direct, false);
     }
   }
   return 0;

@@ -58,8 +58,9 @@ struct TickOutput {
 
 // Work units (geometry::WorkMeter) one tick may spend by default, a few hundred
 // microseconds here. Its refill, a quarter per tick, is 1.7 times what the heaviest
-// benchmark tick spends, tick after tick (at most 1,451: a 5 mm finger proxy sliding on
-// a sphere of 1M triangles; bench/results/render_tick.md).
+// benchmark tick spends, tick after tick (at most 1,450: a 5 mm finger proxy sliding on
+// a sphere of 1M triangles asking the whole scene, 1,064 gathering its neighbourhood;
+// bench/results/render_tick.md).
 inline constexpr int64_t kDefaultTickWorkBudget = 10000;
 
 // What a proxy or admittance session gathers around its avatar once a tick and asks its
