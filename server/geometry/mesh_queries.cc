@@ -70,31 +70,6 @@ inline int IntersectChildren(const BvhNode& node, const SegmentSlabs& s, double 
   return mask;
 }
 
-// Squared distance from p to each child box of `node` (0 inside; infinite for an
-// empty slot).
-inline void ChildDistancesSquared(const BvhNode& node, const Double2 p[3],
-                                  double d2[kBvhWidth]) {
-  for (int c = 0; c < kBvhWidth; c += 4) {
-    Double2 sum[2] = {Splat(0), Splat(0)};
-    for (int a = 0; a < 3; ++a) {
-      Double2 lo[2], hi[2];
-      Load(node.lo[a] + c, lo[0], lo[1]);
-      Load(node.hi[a] + c, hi[0], hi[1]);
-      for (int h = 0; h < 2; ++h) {
-        const Double2 below = lo[h] - p[a];
-        const Double2 above = p[a] - hi[h];
-        Double2 gap = below > above ? below : above;
-        gap = gap > 0 ? gap : Splat(0);
-        sum[h] += gap * gap;
-      }
-    }
-    for (int h = 0; h < 2; ++h) {
-      d2[c + 2 * h] = sum[h][0];
-      d2[c + 2 * h + 1] = sum[h][1];
-    }
-  }
-}
-
 // What VisitChildren returns instead of a node to go on with.
 constexpr int kPop = -1;   // take the next node from the stack
 constexpr int kStop = -2;  // a leaf visitor ended the traversal

@@ -540,28 +540,8 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Sphere& ball, std::span<Prepar
   while (top > 0) {
     if (!WorkMeter::Charge(1)) return found;
     const BvhNode& node = nodes[stack[--top]];
-    // squared distances from c to the children's boxes, two at a time (infinite for an
-    // empty slot)
     double d2[kBvhWidth];
-    for (int k = 0; k < kBvhWidth; k += 4) {
-      Double2 sum[2] = {Splat(0), Splat(0)};
-      for (int a = 0; a < 3; ++a) {
-        Double2 lo[2], hi[2];
-        Load(node.lo[a] + k, lo[0], lo[1]);
-        Load(node.hi[a] + k, hi[0], hi[1]);
-        for (int h = 0; h < 2; ++h) {
-          const Double2 below = lo[h] - p[a];
-          const Double2 above = p[a] - hi[h];
-          Double2 gap = below > above ? below : above;
-          gap = gap > 0 ? gap : Splat(0);
-          sum[h] += gap * gap;
-        }
-      }
-      for (int h = 0; h < 2; ++h) {
-        d2[k + 2 * h] = sum[h][0];
-        d2[k + 2 * h + 1] = sum[h][1];
-      }
-    }
+    ChildDistancesSquared(node, p, d2);
     for (int k = 0; k < kBvhWidth; ++k) {
       if (!(d2[k] <= r2)) continue;
       if (!node.is_leaf(k)) {

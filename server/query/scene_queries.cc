@@ -41,6 +41,18 @@ struct GatheredObjects {
   }
 };
 
+// A probe of object i (asked for a sphere of radius r) as a contact in W.
+SceneContact ContactInWorld(const scene::SceneObject& object, int i, const ShapeProbe& probe, double r) {
+  return {i, r - probe.signed_distance, object.X_WB.ToWorld(probe.point_B),
+          object.X_WB.DirectionToWorld(probe.normal_B), probe.triangle};
+}
+
+// A hit of object i's sweep as a hit in W.
+SceneSweep SweepInWorld(const scene::SceneObject& object, int i, const ShapeSweep& sweep) {
+  return {true, i, sweep.t, object.X_WB.ToWorld(sweep.point_B), object.X_WB.DirectionToWorld(sweep.normal_B),
+          sweep.triangle};
+}
+
 template <typename Objects>
 SceneContact FindDeepestContactAmong(const scene::SceneSnapshot& scene, const Objects& objects, const Vector3& c_W,
                                      double r, double max_gap) {
@@ -61,11 +73,7 @@ SceneContact FindDeepestContactAmong(const scene::SceneSnapshot& scene, const Ob
     if (deepest.object >= 0 && (depth < deepest.depth || (depth == deepest.depth && i > deepest.object))) {
       return true;
     }
-    deepest.object = i;
-    deepest.depth = depth;
-    deepest.point_W = object.X_WB.ToWorld(probe.point_B);
-    deepest.normal_W = object.X_WB.DirectionToWorld(probe.normal_B);
-    deepest.triangle = probe.triangle;
+    deepest = ContactInWorld(object, i, probe, r);
     return true;
   });
   return deepest;
@@ -82,8 +90,7 @@ SceneContact FindKinematicContactAmong(const scene::SceneSnapshot& scene, const 
     if (object.motion != scene::Motion::kKinematic || (carrier.object >= 0 && i > carrier.object)) return true;
     const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(c_W), reach);
     if (!probe.found || probe.signed_distance > reach) return true;
-    carrier = {i, reach - probe.signed_distance, object.X_WB.ToWorld(probe.point_B),
-               object.X_WB.DirectionToWorld(probe.normal_B), probe.triangle};
+    carrier = ContactInWorld(object, i, probe, reach);
     return true;
   });
   return carrier;
@@ -107,12 +114,7 @@ SceneSweep SweepSphereSceneAmong(const scene::SceneSnapshot& scene, const Object
     if (!sweep.hit || (first.hit && (sweep.t > first.t || (sweep.t == first.t && i > first.object)))) {
       return true;
     }
-    first.hit = true;
-    first.object = i;
-    first.t = sweep.t;
-    first.point_W = object.X_WB.ToWorld(sweep.point_B);
-    first.normal_W = object.X_WB.DirectionToWorld(sweep.normal_B);
-    first.triangle = sweep.triangle;
+    first = SweepInWorld(object, i, sweep);
     return true;
   });
   return first;
@@ -186,8 +188,7 @@ void CastSegments(const scene::SceneSnapshot& scene, std::span<const Vector3> a_
     for (std::size_t i = 0; i < n; ++i) {
       const ShapeSweep& sweep = sweeps[i];
       if (!sweep.hit || (out[i].hit && sweep.t >= out[i].t)) continue;
-      out[i] = {true, index, sweep.t, object.X_WB.ToWorld(sweep.point_B), object.X_WB.DirectionToWorld(sweep.normal_B),
-                sweep.triangle};
+      out[i] = SweepInWorld(object, index, sweep);
     }
   }
 }
@@ -199,8 +200,7 @@ std::vector<SceneContact> FindObjectContacts(const scene::SceneSnapshot& scene, 
     const scene::SceneObject& object = scene.object(i);
     const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(c_W), r);
     if (!probe.found || probe.signed_distance > r) continue;
-    contacts.push_back({i, r - probe.signed_distance, object.X_WB.ToWorld(probe.point_B),
-                        object.X_WB.DirectionToWorld(probe.normal_B), probe.triangle});
+    contacts.push_back(ContactInWorld(object, i, probe, r));
   }
   return contacts;
 }
