@@ -1,6 +1,6 @@
 // Per-tick time of RenderSession::Tick (collision detection, force response and
 // control), as percentiles over many ticks: point and sphere avatars, every method,
-// against primitives and against meshes of about 10k, 100k and 1M triangles.
+// against primitives and against meshes of about 10k, 100k and 1.3M triangles.
 //
 // The device slides around the object's equator pressed 1 mm in, at 0.2 m/s, so every
 // tick is in contact (the expensive case). One thread; every tick is timed on its own
@@ -8,6 +8,11 @@
 // (geometry::WorkMeter: what --tick-work-budget bounds). The proxy methods run twice,
 // taking turns in the same run: gathering a neighbourhood once a tick (as the server does)
 // and asking the whole scene each query (the direct path, as before issue 12).
+//
+// The baseline: a fixed arithmetic loop as long as the first session's median tick,
+// timed the same way in the same blocks. It does no memory work at all, so its tail is
+// what this machine alone adds at that duration (interrupts, preemption, the
+// hypervisor): on a shared 2-core machine a 25 us loop's p99.9 is far above its p50.
 //
 //   render_tick_percentiles [--ticks N] [--quick] [--triangles N] [--method NAME] [--gathered-only]
 //     -> a Markdown table on stdout (--triangles, --method: only that object (0 for the
@@ -22,6 +27,7 @@
 #include <random>
 #include <utility>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "server/force/render_session.h"
@@ -74,7 +80,7 @@ std::vector<Target> MakeTargets(bool quick) {
   }
   targets.push_back({"convex (200 points)", Spec("convex", hull), 0});
   // icospheres: 20 f^2 triangles
-  for (int frequency : quick ? std::vector<int>{22} : std::vector<int>{22, 71, 224}) {
+  for (int frequency : quick ? std::vector<int>{22} : std::vector<int>{22, 71, 256}) {
     const geometry::TriangleMesh mesh = geometry::MakeIcosphere(frequency, kRadius);
     targets.push_back({"mesh", Spec("mesh", PinnedMesh(mesh)), mesh.num_triangles()});
   }
@@ -92,6 +98,44 @@ struct Percentiles {
   int64_t work_p999, work_max;  // work units per tick (geometry::WorkMeter)
   int triangles_p50, triangles_max;  // triangles gathered per tick
   double local;                      // share of the queries answered by the neighbourhood
+  double loop_p50 = 0, loop_p999 = 0;  // the baseline loop's, in the same blocks
+};
+
+// The baseline loop: a chain of dependent multiply-adds (no memory traffic), its length
+// set so that its median matches a given duration.
+class BaselineLoop {
+ public:
+  void Calibrate(double target_us) {
+    iterations_ = 1000;
+    std::vector<double> times;
+    for (int k = 0; k < 201; ++k) times.push_back(TimeOnce());
+    std::nth_element(times.begin(), times.begin() + 100, times.end());
+    iterations_ = std::max<int64_t>(1, static_cast<int64_t>(iterations_ * target_us / times[100]));
+  }
+  void Run(int count) {
+    for (int k = 0; k < count; ++k) samples_.push_back(TimeOnce());
+  }
+  std::pair<double, double> P50AndP999() {
+    std::sort(samples_.begin(), samples_.end());
+    const auto at = [&](double q) { return samples_[std::min<size_t>(samples_.size() - 1, q * samples_.size())]; };
+    return {at(0.5), at(0.999)};
+  }
+
+ private:
+  double TimeOnce() {
+    const auto begin = std::chrono::steady_clock::now();
+    double x = value_;
+    // kept between the clock readings: neither hoisted above nor sunk below them
+    asm volatile("" : "+x"(x) : : "memory");
+    for (int64_t i = 0; i < iterations_; ++i) x = x * 0.999999 + 1e-9;
+    asm volatile("" : "+x"(x) : : "memory");
+    value_ = x;
+    const auto end = std::chrono::steady_clock::now();
+    return std::chrono::duration<double, std::micro>(end - begin).count();
+  }
+  int64_t iterations_ = 1;
+  double value_ = 1;
+  std::vector<double> samples_;
 };
 
 // One session sliding around the object, ticked in blocks (so that two sessions can
@@ -123,6 +167,18 @@ class Slider {
       triangles_.push_back(session_.neighbourhood().num_triangles());
     }
     if (!measured) local_before_ = session_.neighbourhood().local_answers(), scene_before_ = session_.neighbourhood().scene_answers();
+  }
+
+  // the median of count ticks, none kept (to calibrate the baseline)
+  double MedianOf(int count) {
+    std::vector<double> times;
+    for (int k = 0; k < count; ++k) {
+      const auto begin = std::chrono::steady_clock::now();
+      Run(1, false);
+      times.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - begin).count());
+    }
+    std::nth_element(times.begin(), times.begin() + count / 2, times.end());
+    return times[count / 2];
   }
 
   Percentiles Result() {
@@ -159,7 +215,8 @@ class Slider {
 
 // A session that gathers its neighbourhood (as the server's do) and one that asks the
 // whole scene every query (the direct path), taking turns in blocks of a thousand ticks
-// so that the machine's load falls on both alike. Penalty never gathers: one session.
+// so that the machine's load falls on both alike, and the baseline loop as long as the
+// first one's median in the same blocks. Penalty never gathers: one session.
 std::pair<Percentiles, Percentiles> Measure(const scene::SceneSnapshot& scene, const Method& m, int ticks,
                                             bool gathered_only) {
   constexpr int kBlock = 1000;
@@ -168,11 +225,16 @@ std::pair<Percentiles, Percentiles> Measure(const scene::SceneSnapshot& scene, c
   const bool both = m.method != force::ForceMethod::kPenalty && !gathered_only;
   gathered.Run(ticks / 10, false);
   if (both) direct.Run(ticks / 10, false);
+  BaselineLoop baseline;
+  baseline.Calibrate(gathered.MedianOf(501));
   for (int done = 0; done < ticks; done += kBlock) {
     gathered.Run(std::min(kBlock, ticks - done), true);
     if (both) direct.Run(std::min(kBlock, ticks - done), true);
+    baseline.Run(std::min(kBlock, ticks - done));
   }
-  return {gathered.Result(), both ? direct.Result() : Percentiles{}};
+  Percentiles first = gathered.Result();
+  std::tie(first.loop_p50, first.loop_p999) = baseline.P50AndP999();
+  return {first, both ? direct.Result() : Percentiles{}};
 }
 
 }  // namespace
@@ -207,17 +269,22 @@ int main(int argc, char** argv) {
   };
   std::printf(
       "| object | triangles | avatar and method | queries | p50 µs | p99 µs | p99.9 µs | max µs | work p99.9 | work max "
-      "| gathered triangles p50 / max | answered by the neighbourhood |\n");
-  std::printf("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+      "| gathered triangles p50 / max | answered by the neighbourhood | baseline loop p50 / p99.9 µs |\n");
+  std::printf("|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   const auto row = [](const Target& target, const Method& m, const char* queries, const Percentiles& p,
                       bool gathers) {
     std::printf("| %s | %s | %s | %s | %.2f | %.2f | %.2f | %.1f | %lld | %lld |", target.name.c_str(),
                 target.triangles ? std::to_string(target.triangles).c_str() : "-", m.name, queries, p.p50, p.p99,
                 p.p999, p.max, static_cast<long long>(p.work_p999), static_cast<long long>(p.work_max));
     if (gathers) {
-      std::printf(" %d / %d | %.1f%% |\n", p.triangles_p50, p.triangles_max, 100 * p.local);
+      std::printf(" %d / %d | %.1f%% |", p.triangles_p50, p.triangles_max, 100 * p.local);
     } else {
-      std::printf(" - | - |\n");
+      std::printf(" - | - |");
+    }
+    if (p.loop_p50 > 0) {
+      std::printf(" %.2f / %.2f |\n", p.loop_p50, p.loop_p999);
+    } else {
+      std::printf(" - |\n");
     }
     std::fflush(stdout);
   };

@@ -23,8 +23,9 @@ constexpr double kRestingGap = 1e-6;
 constexpr int kMaxPushes = 3;
 // Constraint violations smaller than this (m) count as satisfied.
 constexpr double kFeasibility = 1e-12;
-// What a neighbourhood holds beyond the sphere along the expected motion: this share of
-// the motion's length, and this much more (m).
+// What a neighbourhood holds beyond the sphere around the expected motion (the segment
+// from the proxy to where it would go on as it went): this share of the motion's
+// length, and this much more (m).
 constexpr double kGatherMotionMargin = 0.1;
 constexpr double kGatherMargin = 2e-5;
 
@@ -102,8 +103,7 @@ Vector3 ProjectOntoPlanes(const Vector3& goal, const ProxyPlane* planes, int num
 
 void GatherAlong(const scene::SceneSnapshot& scene, query::Neighbourhood& near, const Vector3& x, double r,
                  const Vector3& expected_motion) {
-  const double length = expected_motion.norm();
-  near.Gather(scene, x + 0.5 * expected_motion, r + (0.5 + kGatherMotionMargin) * length + kGatherMargin, r > 0);
+  near.Gather(scene, x, x + expected_motion, r + kGatherMotionMargin * expected_motion.norm() + kGatherMargin, r > 0);
 }
 
 Vector3 CarryProxy(const query::Neighbourhood& near, const Vector3& x, double r, double dt, bool scene_changed) {

@@ -215,29 +215,35 @@ bool PassesFarFrom(const Vector3& centroid, double bounding_radius, const Sweep&
   return (offset + nearest * s.d).squaredNorm() > bound * bound;
 }
 
-// Whether a sweep of radius > 0 stays farther than its reach from a prepared triangle,
-// by a lower bound of their distance: at a centre x of height h over the triangle's
-// plane whose projection onto the plane lies l from the centroid, the distance is at
-// least sqrt(h^2 + max(0, l - bounding radius)^2) (the triangle lies in the plane within
-// its bounding circle); over the segment, the least height (0 when it crosses the plane)
-// and the least l bound it below. Tighter than the bounding sphere where a sphere slides
-// over a dense surface: there every triangle near the contact is about r from the
-// centre, and only those under the path are within reach. Rounding is far inside the
-// reach's slack.
-bool PassesFarFrom(const PreparedTriangle& prepared, const Sweep& s) {
+// A lower bound of the squared distance from the segment a -> a + d to a prepared
+// triangle: at a point of height h over the triangle's plane whose projection onto the
+// plane lies l from the centroid, the distance is at least sqrt(h^2 + max(0, l -
+// bounding radius)^2) (the triangle lies in the plane within its bounding circle); over
+// the segment, the least height (0 when it crosses the plane) and the least l bound it
+// below. With no area (zero normal), the distance from the bounding sphere.
+double LowerDistanceSquared(const PreparedTriangle& prepared, const Vector3& a, const Vector3& d) {
   const Vector3& n = prepared.normal;
-  const Vector3 offset = s.a - prepared.centroid;
+  const Vector3 offset = a - prepared.centroid;
   const double height_a = n.dot(offset);
-  const double climb = n.dot(s.d);
+  const double climb = n.dot(d);
   const double height_b = height_a + climb;
   const double height = height_a * height_b <= 0 ? 0 : std::min(std::abs(height_a), std::abs(height_b));
   // in the plane: the start's and the motion's components along it
   const Vector3 lateral = offset - height_a * n;
-  const Vector3 drift = s.d - climb * n;
+  const Vector3 drift = d - climb * n;
   const double drift_squared = drift.squaredNorm();
   const double nearest = drift_squared > 0 ? std::clamp(-lateral.dot(drift) / drift_squared, 0.0, 1.0) : 0.0;
   const double beside = std::max(0.0, (lateral + nearest * drift).norm() - prepared.bounding_radius);
-  return height * height + beside * beside > s.reach * s.reach;
+  return height * height + beside * beside;
+}
+
+// Whether a sweep of radius > 0 stays farther than its reach from a prepared triangle,
+// by LowerDistanceSquared: tighter than the bounding sphere where a sphere slides over a
+// dense surface (there every triangle near the contact is about r from the centre, and
+// only those under the path are within reach). Rounding is far inside the reach's
+// slack.
+bool PassesFarFrom(const PreparedTriangle& prepared, const Sweep& s) {
+  return LowerDistanceSquared(prepared, s.a, s.d) > s.reach * s.reach;
 }
 
 // SweepTime for r > 0 on a triangle whose bounding sphere the sweep comes near.
@@ -525,10 +531,17 @@ PreparedTriangle PrepareTriangle(const Triangle& triangle, int index) {
   return prepared;
 }
 
-int GatherMeshTriangles(const MeshBvh& bvh, const Sphere& ball, std::span<PreparedTriangle> out) {
-  const Vector3& c = ball.center;
-  if (!c.allFinite() || !(ball.radius >= 0) || !std::isfinite(ball.radius)) return 0;
-  const double r2 = ball.radius * ball.radius;
+int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<PreparedTriangle> out) {
+  const Vector3& a = region.p0;
+  const Vector3 d = region.p1 - region.p0;
+  if (!a.allFinite() || !d.allFinite() || !(region.radius >= 0) || !std::isfinite(region.radius)) return 0;
+  // the BVH is walked with the ball about the segment; each triangle in it is then kept
+  // by its distance bound from the segment itself, with a hair of slack for rounding
+  const Vector3 c = a + 0.5 * d;
+  const double ball_radius = region.radius + 0.5 * d.norm();
+  const double r2 = ball_radius * ball_radius;
+  const double scale = region.radius + std::max(a.cwiseAbs().maxCoeff(), region.p1.cwiseAbs().maxCoeff());
+  const double keep = region.radius + kBoxSlack * scale;
   const Double2 p[3] = {Splat(c.x()), Splat(c.y()), Splat(c.z())};
   const std::vector<BvhNode>& nodes = bvh.nodes();
   // every child box within the ball is opened (no order: all of them are wanted)
@@ -554,9 +567,11 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Sphere& ball, std::span<Prepar
         const Triangle& tri = bvh.primitive(i);
         const Aabb box = Aabb::OfTriangle(tri);
         if ((box.min - c).cwiseMax(c - box.max).cwiseMax(0.0).squaredNorm() > r2) continue;
+        const PreparedTriangle prepared = PrepareTriangle(tri, bvh.primitive_triangle(i));
+        if (LowerDistanceSquared(prepared, a, d) > keep * keep) continue;
         // full: say so, and stop
         if (found == capacity) return capacity + 1;
-        out[found++] = PrepareTriangle(tri, bvh.primitive_triangle(i));
+        out[found++] = prepared;
       }
     }
   }

@@ -96,12 +96,17 @@ struct PreparedTriangle {
 
 PreparedTriangle PrepareTriangle(const Triangle& triangle, int index);
 
-// The triangles of bvh (its non-degenerate ones) whose boxes lie within the closed ball
-// (radius >= 0), prepared, in no particular order: writes them to out and returns how
-// many there are, or out.size() + 1 as soon as more are found than out holds (the
-// traversal stops there). Charges the work meter like the BVH queries (one unit per
-// node opened and per primitive tested); non-finite input finds nothing.
-int GatherMeshTriangles(const MeshBvh& bvh, const Sphere& ball, std::span<PreparedTriangle> out);
+// The triangles of bvh (its non-degenerate ones) that may lie within region.radius
+// (>= 0) of the segment region.p0 -> region.p1 (a ball when they are equal), prepared, in
+// no particular order: writes them to out and returns how many there are, or
+// out.size() + 1 as soon as more are found than out holds (the traversal stops there).
+// Every triangle left out is farther than the radius from the segment: it was passed
+// over by a lower bound of its distance (its box's from the ball about the segment, or
+// its height over its plane beside its bounding circle, as SweepSphereTriangles bounds a
+// sweep). One kept lies within the radius plus its bounding radius. Charges the work
+// meter like the BVH queries (one unit per node opened and per primitive tested);
+// non-finite input finds nothing.
+int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<PreparedTriangle> out);
 
 // SweepSphereMesh over the given triangles instead of a whole mesh, with its decisions
 // bit for bit: the earliest of their hits, the first of them in the span where several

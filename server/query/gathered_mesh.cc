@@ -17,7 +17,8 @@ double DistanceSquaredToBox(const geometry::Aabb& box, const Vector3& p) {
 // How far from p the gathered triangles hold everything: what lies farther may belong to
 // triangles left out. Negative (or NaN) when nothing is known there.
 double KnownReach(const GatheredMesh& near, const Vector3& p) {
-  return near.radius - (p - near.center_B).norm() - kGatheredSlack;
+  const geometry::Capsule& region = near.region_B;
+  return region.radius - DistanceToSegment(p, region.p0, region.p1) - kGatheredSlack;
 }
 
 }  // namespace
@@ -78,13 +79,14 @@ std::optional<geometry::SphereSweepHit> SweepGatheredSphere(const GatheredMesh& 
   if (!a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || !std::isfinite(r) || a_B == b_B) {
     return geometry::SphereSweepHit{};
   }
-  // the centre must stay this near center_B until the first contact: then every
-  // triangle it comes within reach of was gathered
-  const double limit = near.radius - kGatheredSlack - geometry::CalcSphereSweepReach(a_B, b_B, r);
-  if (!((a_B - near.center_B).norm() <= limit)) return std::nullopt;
+  // the centre must stay this near the gathered segment until the first contact: then
+  // every triangle it comes within reach of was gathered (the region is convex, so its
+  // two ends are enough)
+  const double reach = geometry::CalcSphereSweepReach(a_B, b_B, r);
+  if (!(KnownReach(near, a_B) >= reach)) return std::nullopt;
   const geometry::SphereSweepHit hit = geometry::SweepSphereTriangles(near.triangles, a_B, b_B, r);
   const Vector3 last = hit.hit ? Vector3(a_B + hit.t * (b_B - a_B)) : b_B;
-  if (!((last - near.center_B).norm() <= limit)) return std::nullopt;
+  if (!(KnownReach(near, last) >= reach)) return std::nullopt;
   return hit;
 }
 

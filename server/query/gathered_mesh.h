@@ -4,15 +4,16 @@
 // mesh (query::Neighbourhood gathers them once per tick; SweepSphereShape and its
 // nearest-triangle bound then ask here).
 //
-// Theory of operation. The gathered triangles are every triangle whose box lies within
-// radius of center_B, so every triangle left out is farther than radius from center_B.
-// A query whose answer lies within radius - |p - center_B| of its point p (less a slack)
-// can then only be answered by gathered triangles: the answer over them is the answer
-// over the mesh. Otherwise the query says so (nullopt) and the caller asks the mesh's
+// Theory of operation. The gathered triangles hold every triangle within radius of a
+// segment (a ball when its ends are equal), so every triangle left out is farther than
+// radius from the segment. A query whose answer lies within radius - (p's distance from
+// the segment) of its point p (less a slack) can then only be answered by gathered
+// triangles: the answer over them is the answer over the mesh. Otherwise the query says so (nullopt) and the caller asks the mesh's
 // backend. The decisions are the mesh queries' own, on the same double-precision
 // triangles; only the choice among exact ties (several triangles equally near, or
 // touched at the same t) may name another triangle than a BVH traversal would.
 
+#include <algorithm>
 #include <optional>
 #include <span>
 
@@ -23,13 +24,22 @@ namespace hapticd::query {
 
 using geometry::Vector3;
 
-// The triangles of one mesh whose boxes lie within radius of center_B (the mesh's body
-// frame), as geometry::GatherMeshTriangles found them; radius < 0: none gathered.
+// The triangles of one mesh within region_B.radius of the segment region_B.p0 -> p1 (the
+// mesh's body frame), as geometry::GatherMeshTriangles found them; radius < 0: none
+// gathered.
 struct GatheredMesh {
   std::span<const geometry::PreparedTriangle> triangles;
-  Vector3 center_B = Vector3::Zero();
-  double radius = -1;
+  geometry::Capsule region_B{Vector3::Zero(), Vector3::Zero(), -1};
+  bool gathered() const { return region_B.radius >= 0; }
 };
+
+// The distance from p to the segment a -> b (to a when they are equal).
+inline double DistanceToSegment(const Vector3& p, const Vector3& a, const Vector3& b) {
+  const Vector3 d = b - a;
+  const double length_squared = d.squaredNorm();
+  const double t = length_squared > 0 ? std::clamp((p - a).dot(d) / length_squared, 0.0, 1.0) : 0.0;
+  return (p - (a + t * d)).norm();
+}
 
 // What an answer must lie inside the gathered ball by (m) to be the mesh's: far above the
 // rounding of the distances and the frames' changes and above the queries' own

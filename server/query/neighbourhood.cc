@@ -25,20 +25,23 @@ Neighbourhood::Neighbourhood(const scene::SceneSnapshot& scene) : scene_(&scene)
 Neighbourhood::Neighbourhood(int max_objects, int max_triangles)
     : objects_(std::max(max_objects, 0)), triangles_(std::max(max_triangles, 0)) {}
 
-void Neighbourhood::Gather(const scene::SceneSnapshot& scene, const Vector3& c_W, double radius, bool triangles) {
+void Neighbourhood::Gather(const scene::SceneSnapshot& scene, const Vector3& a_W, const Vector3& b_W, double radius,
+                           bool triangles) {
   scene_ = &scene;
-  center_W_ = c_W;
-  radius_ = -1;
+  region_W_ = {a_W, b_W, -1};
   num_objects_ = 0;
   num_triangles_ = 0;
-  if (!c_W.allFinite() || !(radius >= 0) || !std::isfinite(radius) || objects_.empty()) return;
-  // the objects whose bounds lie within radius, while they fit
+  if (!a_W.allFinite() || !b_W.allFinite() || !(radius >= 0) || !std::isfinite(radius) || objects_.empty()) return;
+  // the objects whose bounds lie within the ball about the segment, while they fit (a
+  // few more than the region's: nothing is lost by asking them)
   bool fits = true;
-  const geometry::Aabb cube{c_W - Vector3::Constant(radius), c_W + Vector3::Constant(radius)};
+  const Vector3 c_W = 0.5 * (a_W + b_W);
+  const double ball_radius = radius + 0.5 * (b_W - a_W).norm();
+  const geometry::Aabb cube{c_W - Vector3::Constant(ball_radius), c_W + Vector3::Constant(ball_radius)};
   scene.ForEachObjectNear(cube, [&](int i) {
     if (!geometry::WorkMeter::Charge(1)) return fits = false;
     const scene::SceneObject& object = scene.object(i);
-    if (DistanceSquaredToBox(object.bounds_W, c_W) > radius * radius) return true;
+    if (DistanceSquaredToBox(object.bounds_W, c_W) > ball_radius * ball_radius) return true;
     if (num_objects_ == static_cast<int>(objects_.size())) return fits = false;
     objects_[num_objects_++] = {i, IsBounded(object.bounds_W), {}};
     return true;
@@ -55,12 +58,12 @@ void Neighbourhood::Gather(const scene::SceneSnapshot& scene, const Vector3& c_W
     const scene::SceneObject& object = scene.object(objects_[k].index);
     const auto* mesh = std::get_if<scene::MeshShape>(&object.shape);
     if (mesh == nullptr) continue;
-    const Vector3 c_B = object.X_WB.ToBody(c_W);
+    const geometry::Capsule region_B{object.X_WB.ToBody(a_W), object.X_WB.ToBody(b_W), radius};
     const std::span<geometry::PreparedTriangle> free =
         std::span(triangles_).subspan(static_cast<size_t>(num_triangles_));
-    const int found = geometry::GatherMeshTriangles(*mesh->bvh, {c_B, radius}, free);
+    const int found = geometry::GatherMeshTriangles(*mesh->bvh, region_B, free);
     if (found > static_cast<int>(free.size())) continue;
-    objects_[k].mesh = {free.first(static_cast<size_t>(found)), c_B, radius};
+    objects_[k].mesh = {free.first(static_cast<size_t>(found)), region_B};
     num_triangles_ += found;
   }
   // a spent work budget cut a walk short: what was gathered is not all there is (and
@@ -69,7 +72,7 @@ void Neighbourhood::Gather(const scene::SceneSnapshot& scene, const Vector3& c_W
     num_objects_ = num_triangles_ = 0;
     return;
   }
-  radius_ = radius;
+  region_W_.radius = radius;
 }
 
 }  // namespace hapticd::query

@@ -4,12 +4,15 @@
 // queries (the carry, the push-outs, each sweep of the proxy's passes) are asked of a
 // few objects and triangles instead of the whole scene.
 //
-// Theory of operation. Gather(scene, c_W, radius) keeps every object whose bounds lie
-// within radius of c_W, in scene order, and for each mesh among them every triangle
-// whose box does (geometry::GatherMeshTriangles, prepared for sweeping). Whatever was
-// left out is then farther than radius from c_W. Each query below is scene_queries.h's
-// query of the same name with the same answer:
-//  - asked of the gathered objects when everything it can reach lies within radius
+// Theory of operation. Gather(scene, a_W, b_W, radius) keeps, in scene order, every
+// object whose bounds may lie within radius of the segment a_W -> b_W (the region: a
+// ball when a_W == b_W), and for each mesh among them every triangle that may
+// (geometry::GatherMeshTriangles, prepared for sweeping). Whatever was left out is then
+// farther than radius from the segment. A proxy gathers along the path it expects to
+// take: the region is a sausage, not the ball around it, so on a dense surface it holds
+// far fewer triangles. Each query below is scene_queries.h's query of the same name with
+// the same answer:
+//  - asked of the gathered objects when everything it can reach lies within the region
 //    (a sweep: up to its first contact), otherwise of the whole scene;
 //  - on a gathered mesh, its nearest triangle and its sweep asked of the gathered
 //    triangles where they decide them, otherwise of the mesh (gathered_mesh.h).
@@ -22,7 +25,7 @@
 //        scene (broad phase, BVHs)
 //            |  Gather, once a tick
 //            v
-//   objects + triangles within radius of c_W ----> FindKinematicContact, FindDeepestContact,
+//   objects + triangles within the region -------> FindKinematicContact, FindDeepestContact,
 //            |  (a query reaching past radius)      SweepSphereScene (one per pass)
 //            +----> asks the scene instead
 
@@ -50,20 +53,24 @@ class Neighbourhood {
   Neighbourhood(const Neighbourhood&) = delete;
   Neighbourhood& operator=(const Neighbourhood&) = delete;
 
-  // Gathers what of scene lies within radius (>= 0, finite) of c_W, replacing what it
-  // held: the objects, and with triangles the meshes' triangles there (worth it for a
-  // sphere's sweeps, which meet many of a mesh's BVH boxes; a point's sweep is one cheap
-  // segment traversal). Non-finite input, or more objects there than it holds, leaves
-  // it empty on scene. Charges the work meter one unit per object visited (and the
-  // meshes' traversal units). Real-time safe.
-  void Gather(const scene::SceneSnapshot& scene, const Vector3& c_W, double radius, bool triangles = true);
+  // Gathers what of scene lies within radius (>= 0, finite) of the segment a_W -> b_W,
+  // replacing what it held: the objects, and with triangles the meshes' triangles there
+  // (worth it for a sphere's sweeps, which meet many of a mesh's BVH boxes; a point's
+  // sweep is one cheap segment traversal). Non-finite input, or more objects there than
+  // it holds, leaves it empty on scene. Charges the work meter one unit per object
+  // visited (and the meshes' traversal units). Real-time safe.
+  void Gather(const scene::SceneSnapshot& scene, const Vector3& a_W, const Vector3& b_W, double radius,
+              bool triangles = true);
+  // The same about one point: the ball of radius about c_W.
+  void Gather(const scene::SceneSnapshot& scene, const Vector3& c_W, double radius, bool triangles = true) {
+    Gather(scene, c_W, c_W, radius, triangles);
+  }
 
   const scene::SceneSnapshot& scene() const { return *scene_; }
-  // Whether it holds what lies within radius() of center_W(); false: every query asks
-  // the scene.
-  bool gathered() const { return radius_ >= 0; }
-  const Vector3& center_W() const { return center_W_; }
-  double radius() const { return radius_; }
+  // Whether it holds what lies within the region; false: every query asks the scene.
+  bool gathered() const { return region_W_.radius >= 0; }
+  // The segment and radius gathered about (radius < 0: nothing gathered).
+  const geometry::Capsule& region_W() const { return region_W_; }
   int num_objects() const { return num_objects_; }
   int num_triangles() const { return num_triangles_; }
 
@@ -72,14 +79,15 @@ class Neighbourhood {
   int64_t local_answers() const { return local_answers_; }
   int64_t scene_answers() const { return scene_answers_; }
 
- // For the queries (scene_queries.cc): whether everything within reach of p_W lies
-  // within the gathered ball (false when nothing is gathered).
+  // For the queries (scene_queries.cc): whether everything within reach of p_W lies
+  // within the region (false when nothing is gathered).
   bool Holds(const Vector3& p_W, double reach) const {
-    return radius_ >= 0 && (p_W - center_W_).norm() + reach + kGatheredSlack <= radius_;
+    return gathered() &&
+           DistanceToSegment(p_W, region_W_.p0, region_W_.p1) + reach + kGatheredSlack <= region_W_.radius;
   }
   // Calls visit(i, mesh) for each gathered object i whose bounds overlap box (closed;
   // objects without finite bounds always), in scene order, until a visit returns false;
-  // mesh: the triangles gathered of it (radius < 0 for none, or not a mesh).
+  // mesh: the triangles gathered of it (none gathered, or not a mesh: !mesh.gathered()).
   template <typename Visit>
   void ForEachObjectNear(const geometry::Aabb& box, Visit visit) const {
     for (int k = 0; k < num_objects_; ++k) {
@@ -98,12 +106,11 @@ class Neighbourhood {
   struct Object {
     int index = -1;        // in the snapshot
     bool bounded = true;   // finite bounds (the broad phase's test applies)
-    GatheredMesh mesh;     // a mesh's triangles (radius < 0: asked of the whole mesh)
+    GatheredMesh mesh;     // a mesh's triangles (none gathered: asked of the whole mesh)
   };
 
   const scene::SceneSnapshot* scene_ = nullptr;
-  Vector3 center_W_ = Vector3::Zero();
-  double radius_ = -1;
+  geometry::Capsule region_W_{Vector3::Zero(), Vector3::Zero(), -1};
   std::vector<Object> objects_;
   int num_objects_ = 0;
   std::vector<geometry::PreparedTriangle> triangles_;

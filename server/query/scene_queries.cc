@@ -109,7 +109,7 @@ SceneSweep SweepSphereSceneAmong(const scene::SceneSnapshot& scene, const Object
     const Vector3 a_B = object.X_WB.ToBody(a_W);
     const Vector3 b_B = object.X_WB.ToBody(b_W);
     const ShapeSweep sweep =
-        mesh.radius >= 0 ? SweepSphereShape(object.shape, a_B, b_B, r, mesh) : SweepSphereShape(object.shape, a_B, b_B, r);
+        mesh.gathered() ? SweepSphereShape(object.shape, a_B, b_B, r, mesh) : SweepSphereShape(object.shape, a_B, b_B, r);
     // the first contact; of simultaneous ones, the first object in the scene
     if (!sweep.hit || (first.hit && (sweep.t > first.t || (sweep.t == first.t && i > first.object)))) {
       return true;
