@@ -535,16 +535,18 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
   const Vector3& a = region.p0;
   const Vector3 d = region.p1 - region.p0;
   if (!a.allFinite() || !d.allFinite() || !(region.radius >= 0) || !std::isfinite(region.radius)) return 0;
-  // the BVH is walked with the ball about the segment; each triangle in it is then kept
-  // by its distance bound from the segment itself, with a hair of slack for rounding
-  const Vector3 c = a + 0.5 * d;
-  const double ball_radius = region.radius + 0.5 * d.norm();
-  const double r2 = ball_radius * ball_radius;
+  // the BVH is walked with the segment's own box (a box farther than the radius from it
+  // is farther from the segment); each triangle whose box passes is then kept by its
+  // distance bound from the segment itself, with a hair of slack for rounding
+  const Aabb segment_box{a.cwiseMin(region.p1), a.cwiseMax(region.p1)};
   const double scale = region.radius + std::max(a.cwiseAbs().maxCoeff(), region.p1.cwiseAbs().maxCoeff());
   const double keep = region.radius + kBoxSlack * scale;
-  const Double2 p[3] = {Splat(c.x()), Splat(c.y()), Splat(c.z())};
+  const double r2 = keep * keep;
+  const Double2 q_lo[3] = {Splat(segment_box.min.x()), Splat(segment_box.min.y()), Splat(segment_box.min.z())};
+  const Double2 q_hi[3] = {Splat(segment_box.max.x()), Splat(segment_box.max.y()), Splat(segment_box.max.z())};
   const std::vector<BvhNode>& nodes = bvh.nodes();
-  // every child box within the ball is opened (no order: all of them are wanted)
+  // every child box within the radius of the segment's box is opened (no order: all
+  // of them are wanted)
   int stack[(kBvhWidth - 1) * kMaxBvhDepth + 1];
   int top = 0;
   stack[top++] = 0;
@@ -554,7 +556,7 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
     if (!WorkMeter::Charge(1)) return found;
     const BvhNode& node = nodes[stack[--top]];
     double d2[kBvhWidth];
-    ChildDistancesSquared(node, p, d2);
+    ChildDistancesSquared(node, q_lo, q_hi, d2);
     for (int k = 0; k < kBvhWidth; ++k) {
       if (!(d2[k] <= r2)) continue;
       if (!node.is_leaf(k)) {
@@ -566,9 +568,11 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
       for (int i = node.first_primitive(k); i < node.first_primitive(k) + node.count[k]; ++i) {
         const Triangle& tri = bvh.primitive(i);
         const Aabb box = Aabb::OfTriangle(tri);
-        if ((box.min - c).cwiseMax(c - box.max).cwiseMax(0.0).squaredNorm() > r2) continue;
+        if ((box.min - segment_box.max).cwiseMax(segment_box.min - box.max).cwiseMax(0.0).squaredNorm() > r2) {
+          continue;
+        }
         const PreparedTriangle prepared = PrepareTriangle(tri, bvh.primitive_triangle(i));
-        if (LowerDistanceSquared(prepared, a, d) > keep * keep) continue;
+        if (LowerDistanceSquared(prepared, a, d) > r2) continue;
         // full: say so, and stop
         if (found == capacity) return capacity + 1;
         out[found++] = prepared;

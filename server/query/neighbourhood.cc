@@ -8,10 +8,10 @@
 namespace hapticd::query {
 namespace {
 
-// Squared distance from p to a box (0 inside); infinite extents work.
-double DistanceSquaredToBox(const geometry::Aabb& box, const Vector3& p) {
-  const Vector3 outside = (box.min - p).cwiseMax(p - box.max).cwiseMax(0.0);
-  return outside.squaredNorm();
+// Squared distance between two boxes (0 where they overlap); infinite extents work.
+double DistanceSquaredBetweenBoxes(const geometry::Aabb& x, const geometry::Aabb& y) {
+  const Vector3 gap = (x.min - y.max).cwiseMax(y.min - x.max).cwiseMax(0.0);
+  return gap.squaredNorm();
 }
 
 bool IsBounded(const geometry::Aabb& bounds) {
@@ -32,16 +32,14 @@ void Neighbourhood::Gather(const scene::SceneSnapshot& scene, const Vector3& a_W
   num_objects_ = 0;
   num_triangles_ = 0;
   if (!a_W.allFinite() || !b_W.allFinite() || !(radius >= 0) || !std::isfinite(radius) || objects_.empty()) return;
-  // the objects whose bounds lie within the ball about the segment, while they fit (a
+  // the objects whose bounds lie within radius of the segment's box, while they fit (a
   // few more than the region's: nothing is lost by asking them)
   bool fits = true;
-  const Vector3 c_W = 0.5 * (a_W + b_W);
-  const double ball_radius = radius + 0.5 * (b_W - a_W).norm();
-  const geometry::Aabb cube{c_W - Vector3::Constant(ball_radius), c_W + Vector3::Constant(ball_radius)};
-  scene.ForEachObjectNear(cube, [&](int i) {
+  const geometry::Aabb segment_box{a_W.cwiseMin(b_W), a_W.cwiseMax(b_W)};
+  scene.ForEachObjectNear(segment_box.Inflated(radius), [&](int i) {
     if (!geometry::WorkMeter::Charge(1)) return fits = false;
     const scene::SceneObject& object = scene.object(i);
-    if (DistanceSquaredToBox(object.bounds_W, c_W) > ball_radius * ball_radius) return true;
+    if (DistanceSquaredBetweenBoxes(object.bounds_W, segment_box) > radius * radius) return true;
     if (num_objects_ == static_cast<int>(objects_.size())) return fits = false;
     objects_[num_objects_++] = {i, IsBounded(object.bounds_W), {}};
     return true;
