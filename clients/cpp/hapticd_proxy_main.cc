@@ -165,7 +165,8 @@ int Run(const ProxyOptions& options) {
       drivers.push_back(MakeDriver(options));
       const SessionTicket ticket = client->OpenSession(MakeOpenSession(drivers.back()->caps()));
       session_ids.push_back(ticket.session_id);
-      links.push_back(std::make_unique<RealtimeLink>(ticket.session_id, ticket.key, ticket.udp_endpoint));
+      const asio::ip::udp::endpoint udp = options.udp_via.host.empty() ? ticket.udp_endpoint : ResolveUdp(options.udp_via);
+      links.push_back(std::make_unique<RealtimeLink>(ticket.session_id, ticket.key, udp));
     }
   }
 

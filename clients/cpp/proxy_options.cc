@@ -39,6 +39,9 @@ than the miss threshold after their tick's deadline).
   --tls-ca FILE        speak TLS to the server, trusting the certificates in this PEM
                        file (the server requires TLS off loopback)
   --access-token-file FILE  its first line is the server's access token (Hello)
+  --udp-via HOST:PORT  send the realtime datagrams here instead of the server's realtime
+                       endpoint (an impairment relay in front of it: hapticd-netem
+                       --forward to the server's UDP port); with --server only
   --realtime-priority N  SCHED_FIFO priority of the loops (default 20, as hapticd's
                        realtime thread; 0: normal scheduling); without CAP_SYS_NICE the
                        loop runs at normal priority and the report says so
@@ -189,6 +192,8 @@ ProxyOptions ParseProxyOptions(std::span<const std::string_view> args) {
       options.tls_ca_file = value;
     } else if (name == "--access-token-file") {
       options.access_token_file = value;
+    } else if (name == "--udp-via") {
+      options.udp_via = ParseTarget(name, value);
     } else if (name == "--timeout-s") {
       options.timeout_s = ParseInRange(name, value, 1e-3, 3600);
     } else {
@@ -197,6 +202,9 @@ ProxyOptions ParseProxyOptions(std::span<const std::string_view> args) {
   }
   if (options.help) return options;
   if (!have_target) throw OptionsError("give --server HOST:PORT or --echo HOST:PORT (see --help)");
+  if (options.echo && !options.udp_via.host.empty()) {
+    throw OptionsError("--udp-via goes with --server (with --echo, name the relay as the echo)");
+  }
   if (options.threads > options.sessions) {
     throw OptionsError(fmt::format("--threads is {}; it must be at most --sessions ({}): a loop serves one "
                                    "session at least",

@@ -45,6 +45,7 @@ struct ProxyOptions {
   double timeout_s = 5;  // control channel calls
   std::string tls_ca_file;        // non-empty: TLS to the server, trusting this PEM file
   std::string access_token_file;  // its first line is the server's access token
+  HostPort udp_via;  // host non-empty: realtime datagrams go here (a relay), not to the server
   int realtime_priority = 20;  // SCHED_FIFO priority of the loop's thread; 0: normal
 };
 

@@ -55,6 +55,16 @@ TEST(ProxyOptions, ReadsEveryOption) {
   EXPECT_EQ(options.realtime_priority, 0);
 }
 
+TEST(ProxyOptions, SendsTheRealtimeDatagramsViaARelay) {
+  const ProxyOptions options = Parse({"--server", "127.0.0.1:7460", "--udp-via", "10.0.0.2:9000"});
+  EXPECT_EQ(options.udp_via.host, "10.0.0.2");
+  EXPECT_EQ(options.udp_via.port, 9000);
+  EXPECT_TRUE(Parse({"--server", "127.0.0.1:7460"}).udp_via.host.empty());
+  EXPECT_EQ(ErrorOf({"--echo", "127.0.0.1:9", "--udp-via", "127.0.0.1:8"}),
+            "--udp-via goes with --server (with --echo, name the relay as the echo)");
+  EXPECT_EQ(ErrorOf({"--server", "a:1", "--udp-via", "relay"}), "--udp-via \"relay\" is not HOST:PORT: there is no port");
+}
+
 TEST(ProxyOptions, HelpNeedsNothingElse) { EXPECT_TRUE(Parse({"--help"}).help); }
 
 TEST(ProxyOptions, BadValuesAreNamed) {
