@@ -112,7 +112,7 @@ void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const 
       "\"realtime_priority\": {}, \"ticks\": {}, "
       "\"rtt_p50_us\": {:.1f}, \"rtt_p90_us\": {:.1f}, \"rtt_p99_us\": {:.1f}, \"rtt_p999_us\": {:.1f}, "
       "\"rtt_max_us\": {:.1f}, \"wire_rtt_p50_us\": {:.1f}, \"wire_rtt_p99_us\": {:.1f}, "
-      "\"wire_rtt_p999_us\": {:.1f}, \"lateness_p50_us\": {:.1f}, \"lateness_p99_us\": {:.1f}, "
+      "\"wire_rtt_p999_us\": {:.1f}, \"wire_rtt_max_us\": {:.1f}, \"lateness_p50_us\": {:.1f}, \"lateness_p99_us\": {:.1f}, "
       "\"lateness_p999_us\": {:.1f}, \"lateness_max_us\": {:.1f}, \"deadline_misses\": {}, \"overruns\": {}, "
       "\"late_states\": {}, \"send_lateness_p50_us\": {:.1f}, \"send_lateness_p99_us\": {:.1f}, "
       "\"send_lateness_max_us\": {:.1f}, "
@@ -122,7 +122,7 @@ void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const 
       fmt::format("{}:{}", options.target.host, options.target.port), options.echo ? "echo" : "hapticd",
       options.sessions, options.threads, options.rate_hz, options.seconds, priority, r.ticks, Us(r.rtt.p50), Us(r.rtt.p90), Us(r.rtt.p99),
       Us(r.rtt.p999), Us(r.rtt.max), Us(r.wire_rtt.p50), Us(r.wire_rtt.p99), Us(r.wire_rtt.p999),
-      Us(r.lateness.p50), Us(r.lateness.p99), Us(r.lateness.p999), Us(r.lateness.max), r.deadline_misses,
+      Us(r.wire_rtt.max), Us(r.lateness.p50), Us(r.lateness.p99), Us(r.lateness.p999), Us(r.lateness.max), r.deadline_misses,
       r.overruns, r.late_states, Us(r.send_lateness.p50), Us(r.send_lateness.p99), Us(r.send_lateness.max),
       r.skipped_ticks, r.packets.sent, r.packets.answered, r.packets.late, r.packets.lost(),
       r.packets.stale, r.packets.bad, r.packets.send_errors, r.max_force_n, r.contacts, r.watchdog_trips,
