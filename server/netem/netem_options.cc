@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <charconv>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <functional>
@@ -41,16 +42,22 @@ double ReadProbability(std::string_view flag, std::string_view text) {
   return ReadNumber(flag, text, 0, 1, what);
 }
 
+// HOST:PORT, HOST an IPv4 address or a host name (resolved when the relay starts).
 Endpoint ReadEndpoint(std::string_view flag, std::string_view text) {
   const std::size_t colon = text.rfind(':');
   if (colon == std::string_view::npos) {
-    throw OptionsError(fmt::format("{} is \"{}\"; it must be HOST:PORT (an IPv4 address and a port)", flag, text));
+    throw OptionsError(fmt::format("{} is \"{}\"; it must be HOST:PORT (an IPv4 address or a host name, and a "
+                                   "port)", flag, text));
   }
   Endpoint endpoint{std::string(text.substr(0, colon)), 0};
   std::error_code error;
   const auto address = asio::ip::make_address(endpoint.host, error);
-  if (error || !address.is_v4()) {
-    throw OptionsError(fmt::format("{} is \"{}\"; \"{}\" is not an IPv4 address", flag, text, endpoint.host));
+  const bool name = !endpoint.host.empty() && endpoint.host.size() <= 253 &&
+                    std::all_of(endpoint.host.begin(), endpoint.host.end(),
+                                [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '.'; });
+  if (error ? !name : !address.is_v4()) {
+    throw OptionsError(
+        fmt::format("{} is \"{}\"; \"{}\" is neither an IPv4 address nor a host name", flag, text, endpoint.host));
   }
   endpoint.port = ReadInt<int>(flag, text.substr(colon + 1), 0, 65535);
   return endpoint;
@@ -164,8 +171,10 @@ device only, whatever the order):
                             --delay-ms and --jitter-ms; at most 10000000 lines
 
 options:
-  --listen HOST:PORT        where devices send (IPv4; port 0: any free port)
-  --forward HOST:PORT       the server's realtime endpoint (IPv4)
+  --listen HOST:PORT        where devices send (an IPv4 address or a host name; port 0:
+                            any free port)
+  --forward HOST:PORT       the server's realtime endpoint (IPv4 address or host name,
+                            resolved once at start)
   --seed S                  the fates' seed (default 1): the same seed and the same
                             datagrams give the same fates
   --queue-limit N           datagrams held in each direction at once, 1 to 1000000

@@ -1,6 +1,7 @@
 #include "server/netem/relay.h"
 
 #include <arpa/inet.h>
+#include <netdb.h>
 #include <poll.h>
 #include <sched.h>
 #include <sys/prctl.h>
@@ -30,11 +31,24 @@ int64_t NowNs() {
   return static_cast<int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
 }
 
-sockaddr_in ToAddress(const Endpoint& endpoint) {
+// The endpoint's IPv4 address (a name resolved, its first IPv4 address); throws
+// std::runtime_error naming the flag when there is none.
+sockaddr_in ToAddress(const char* flag, const Endpoint& endpoint) {
   sockaddr_in address{};
   address.sin_family = AF_INET;
   address.sin_port = htons(static_cast<uint16_t>(endpoint.port));
-  inet_pton(AF_INET, endpoint.host.c_str(), &address.sin_addr);
+  if (inet_pton(AF_INET, endpoint.host.c_str(), &address.sin_addr) == 1) return address;
+  addrinfo hints{};
+  hints.ai_family = AF_INET;
+  hints.ai_socktype = SOCK_DGRAM;
+  addrinfo* found = nullptr;
+  const int error = getaddrinfo(endpoint.host.c_str(), nullptr, &hints, &found);
+  if (error != 0 || found == nullptr) {
+    throw std::runtime_error(fmt::format("{} {}:{}: cannot resolve \"{}\" ({})", flag, endpoint.host, endpoint.port,
+                                         endpoint.host, gai_strerror(error)));
+  }
+  address.sin_addr = reinterpret_cast<const sockaddr_in*>(found->ai_addr)->sin_addr;
+  freeaddrinfo(found);
   return address;
 }
 
@@ -99,9 +113,9 @@ struct Relay::Flow {
 };
 
 Relay::Relay(const NetemOptions& options) : options_(options), flows_(options.max_flows) {
-  forward_ = ToAddress(options.forward);
+  forward_ = ToAddress("--forward", options.forward);
   listen_fd_ = socket(AF_INET, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  const sockaddr_in listen = ToAddress(options.listen);
+  const sockaddr_in listen = ToAddress("--listen", options.listen);
   if (listen_fd_ < 0 || bind(listen_fd_, reinterpret_cast<const sockaddr*>(&listen), sizeof(listen)) != 0) {
     throw std::runtime_error(fmt::format("--listen {}:{}: cannot bind ({})", options.listen.host,
                                          options.listen.port, std::strerror(errno)));

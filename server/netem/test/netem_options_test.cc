@@ -88,7 +88,9 @@ TEST(NetemOptions, BadValuesNameTheirFlag) {
     const std::string error = ErrorOf(args);
     EXPECT_NE(error.find(want), std::string::npos) << args[0] << ": " << error;
   }
-  EXPECT_NE(ErrorOf({"--listen", "localhost:9"}).find("--listen is \"localhost:9\""), std::string::npos);
+  EXPECT_NE(ErrorOf({"--listen", "no_such host:9"}).find("--listen is \"no_such host:9\""), std::string::npos);
+  EXPECT_NE(ErrorOf({"--listen", "::1:9"}).find("neither an IPv4 address nor a host name"), std::string::npos);
+  EXPECT_EQ(Parse({"--forward", "server.lab:7461"}).forward.host, "server.lab");  // a name, resolved at start
   EXPECT_NE(ErrorOf({"--forward", "127.0.0.1"}).find("--forward is \"127.0.0.1\""), std::string::npos);
   EXPECT_NE(ErrorOf({"--forward", "127.0.0.1:0"}).find("--forward's port is 0"), std::string::npos);
   const std::vector<std::string_view> none;
