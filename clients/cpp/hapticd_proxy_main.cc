@@ -118,14 +118,15 @@ void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const 
       "\"send_lateness_max_us\": {:.1f}, "
       "\"skipped_ticks\": {}, \"packets_sent\": {}, \"packets_answered\": {}, \"packets_late\": {}, "
       "\"packets_lost\": {}, \"stale\": {}, \"bad\": {}, \"send_errors\": {}, \"max_force_n\": {:.4f}, "
-      "\"contacts\": {}, \"watchdog_trips\": {}, \"session_ended\": \"{}\", \"cpu_s\": {:.3f}}}\n",
+      "\"energy_j\": {:.6f}, \"lowest_z_m\": {}, \"contacts\": {}, \"watchdog_trips\": {}, \"session_ended\": \"{}\", \"cpu_s\": {:.3f}}}\n",
       fmt::format("{}:{}", options.target.host, options.target.port), options.echo ? "echo" : "hapticd",
       options.sessions, options.threads, options.rate_hz, options.seconds, priority, r.ticks, Us(r.rtt.p50), Us(r.rtt.p90), Us(r.rtt.p99),
       Us(r.rtt.p999), Us(r.rtt.max), Us(r.wire_rtt.p50), Us(r.wire_rtt.p99), Us(r.wire_rtt.p999),
       Us(r.wire_rtt.max), Us(r.lateness.p50), Us(r.lateness.p99), Us(r.lateness.p999), Us(r.lateness.max), r.deadline_misses,
       r.overruns, r.late_states, Us(r.send_lateness.p50), Us(r.send_lateness.p99), Us(r.send_lateness.max),
       r.skipped_ticks, r.packets.sent, r.packets.answered, r.packets.late, r.packets.lost(),
-      r.packets.stale, r.packets.bad, r.packets.send_errors, r.max_force_n, r.contacts, r.watchdog_trips,
+      r.packets.stale, r.packets.bad, r.packets.send_errors, r.max_force_n, r.energy_j,
+      std::isfinite(r.lowest_z_m) ? fmt::format("{:.6f}", r.lowest_z_m) : std::string("null"), r.contacts, r.watchdog_trips,
       r.session_ended, cpu_s);
   std::fflush(stdout);
 }

@@ -24,6 +24,13 @@ std::vector<RealtimeLink*> LinksOf(const std::vector<ProxyChannel>& channels) {
 int64_t TotalTicks(const ProxyLoopOptions& options) { return std::llround(options.seconds * options.rate_hz); }
 
 // The device output a command asks for.
+// A reading before the first: no position yet.
+DeviceReading NoReading() {
+  DeviceReading reading;
+  reading.p_W = Vector3::Constant(std::numeric_limits<double>::quiet_NaN());
+  return reading;
+}
+
 DeviceOutput OutputOf(const net::DeviceCommandSample& command) {
   DeviceOutput output;
   output.f_W = command.f_W;
@@ -42,6 +49,7 @@ ProxyLoop::ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> 
       link_set_(links_),
       held_W_(channels_.size(), Vector3::Zero()),
       readings_(channels_.size()),
+      previous_(channels_.size(), NoReading()),
       rtt_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()),
       wire_rtt_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()),
       lateness_(static_cast<std::size_t>(TotalTicks(options))),
@@ -61,6 +69,12 @@ ProxyLoop::ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> 
 void ProxyLoop::SendStates(double t, int64_t deadline_ns, ProxyReport& report) {
   for (std::size_t i = 0; i < channels_.size(); ++i) {
     const DeviceReading reading = channels_[i].driver->Read(t);
+    // the work the force held over the last tick did on the handle
+    if (kinds_[i] == DeviceKind::kImpedance && previous_[i].p_W.allFinite()) {
+      report.energy_j += held_W_[i].dot(reading.p_W - previous_[i].p_W);
+    }
+    report.lowest_z_m = std::min(report.lowest_z_m, reading.p_W.z());
+    previous_[i] = reading;
     readings_[i] = reading;
     net::DeviceStateSample state;
     state.p_WD = reading.p_W;
@@ -197,6 +211,8 @@ ProxyReport RunLoops(std::span<ProxyLoop* const> loops, int priority, const std:
     merged.packets += r.packets;
     merged.contacts += r.contacts;
     merged.max_force_n = std::max(merged.max_force_n, r.max_force_n);
+    merged.energy_j += r.energy_j;
+    merged.lowest_z_m = std::min(merged.lowest_z_m, r.lowest_z_m);
     merged.watchdog_trips += r.watchdog_trips;
     merged.dropped_samples += r.dropped_samples;
     if (merged.session_ended.empty()) merged.session_ended = r.session_ended;

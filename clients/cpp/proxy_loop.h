@@ -26,6 +26,7 @@
 #include <cstdint>
 #include <span>
 #include <string>
+#include <limits>
 #include <vector>
 
 #include "clients/cpp/command_watchdog.h"
@@ -66,6 +67,12 @@ struct ProxyReport {
   LinkCounters packets;        // every link's, summed
   int64_t contacts = 0;        // answered commands that report contact
   double max_force_n = 0;      // impedance: largest rendered force; admittance: sensed
+  // impedance: the net work the rendered force did on the handles, sum of each tick's
+  // held force times the handle's displacement over that tick (the scenario format's
+  // energy_j; positive: the rendering generated energy)
+  double energy_j = 0;
+  // the lowest the handles went (m, world z; the default scene's floor is z = 0)
+  double lowest_z_m = std::numeric_limits<double>::infinity();
   uint64_t watchdog_trips = 0;  // device watchdog: holds that ran out
   std::size_t dropped_samples = 0;  // samples beyond the buffers (none when sized right)
   // The server said a session ended (closed or timed out): the run stops at once.
@@ -106,6 +113,7 @@ class ProxyLoop {
   std::vector<Vector3> held_W_;  // per channel: the force applied since its last state
   std::vector<DeviceKind> kinds_;
   std::vector<DeviceReading> readings_;  // per channel: this tick's
+  std::vector<DeviceReading> previous_;  // per channel: the last tick's (p_W NaN before the first)
   LatencyStats rtt_;
   LatencyStats wire_rtt_;
   LatencyStats lateness_;

@@ -54,8 +54,10 @@ struct LinkCounters {
 
 class RealtimeLink {
  public:
-  // How many recent states a link remembers (their send times and whether answered).
-  static constexpr int kWindow = 64;
+  // How many recent states a link remembers (their send times and whether answered): a
+  // second at 1 kHz, so that an answer across the network lab's delays (up to 100 ms
+  // each way, and more with jitter) is still placed, and its round trip measured.
+  static constexpr int kWindow = 1024;
 
   // A socket connected to endpoint for session session_id under key. Throws
   // std::system_error naming the endpoint when the socket cannot be made or connected.

@@ -146,6 +146,55 @@ TEST(ProxyLoop, RendersTheServersForceAndReportsItHeld) {
   EXPECT_EQ(report.packets.lost(), 0u);
 }
 
+// A handle moving down at a constant speed, whatever force it is given.
+class SinkingDriver final : public DeviceDriver {
+ public:
+  static constexpr double kSpeed = 0.01;  // m/s, downwards
+  DeviceCaps caps() const override { return HeldCaps(); }
+  DeviceReading Read(double t) override {
+    DeviceReading reading;
+    reading.p_W = HeldCaps().start_W - Vector3(0, 0, kSpeed * t);
+    read_.push_back(reading.p_W);
+    return reading;
+  }
+  void Apply(const DeviceOutput& output) override { applied_.push_back(output.f_W); }
+  const std::vector<Vector3>& read() const { return read_; }
+  const std::vector<Vector3>& applied() const { return applied_; }
+
+ private:
+  std::vector<Vector3> read_, applied_;
+};
+
+// The energy is the work of each tick's held force over that tick's displacement: the
+// forces the device applied, against a handle whose displacement is known. Its lowest
+// point is the last reading's.
+TEST(ProxyLoop, ReportsTheWorkTheHeldForceDidAndTheLowestPoint) {
+  Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
+    thread_local net::DatagramCodec codec;
+    net::DeviceStateSample state;
+    if (!net::CheckTag(in, TestKey()) || codec.ParseState(in, state) != net::DatagramError::kNone) return 0;
+    net::DeviceCommandSample command;
+    command.session_id = kSession;
+    command.sequence = state.sequence;
+    command.echo_send_time_ns = state.send_time_ns;
+    command.f_W = Vector3(0, 0, 3);
+    return codec.EncodeCommand(command, TestKey(), out);
+  });
+  SinkingDriver device;
+  RealtimeLink link(kSession, TestKey(), server.endpoint());
+  ProxyLoop loop(ShortRun(0.05), {{&device, &link}});
+  const ProxyReport report = loop.Run();
+  // the force held from one reading to the next is what the tick of the first applied
+  const std::vector<Vector3>& read = device.read();
+  const std::vector<Vector3>& applied = device.applied();
+  ASSERT_EQ(read.size(), applied.size());
+  double want = 0;
+  for (std::size_t k = 0; k + 1 < read.size(); ++k) want += applied[k].dot(read[k + 1] - read[k]);
+  EXPECT_NEAR(report.energy_j, want, 1e-12);
+  EXPECT_LT(report.energy_j, 0);  // the upward force resisted the sinking handle
+  EXPECT_EQ(report.lowest_z_m, read.back().z());
+}
+
 // A peer that never answers: every state is lost, and the device watchdog trips once
 // and takes the force to zero.
 TEST(ProxyLoop, ASilentServerTripsTheWatchdog) {
