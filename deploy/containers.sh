@@ -26,16 +26,7 @@ fi
 export CONTAINERS_CONF="$conf"
 
 packages=(podman runc debootstrap podman-compose uidmap slirp4netns golang-github-containernetworking-plugin-dnsname catatonit)
-missing=()
-for p in "${packages[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
-done
-if ((${#missing[@]})); then
-  echo "containers: apt packages: ${missing[*]}" >&2
-  export DEBIAN_FRONTEND=noninteractive
-  apt-get update -qq
-  apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
-fi
+bash "$repo/deploy/apt_install_missing.sh" containers "${packages[@]}"
 
 if ! podman image exists "$base"; then
   echo "containers: building $base with debootstrap" >&2

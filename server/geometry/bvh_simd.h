@@ -42,31 +42,6 @@ inline void Prefetch(const BvhNode& node) {
   }
 }
 
-// Squared distance from p to each child box of `node` (0 inside; infinite for an
-// empty slot).
-inline void ChildDistancesSquared(const BvhNode& node, const Double2 p[3],
-                                  double d2[kBvhWidth]) {
-  for (int c = 0; c < kBvhWidth; c += 4) {
-    Double2 sum[2] = {Splat(0), Splat(0)};
-    for (int a = 0; a < 3; ++a) {
-      Double2 lo[2], hi[2];
-      Load(node.lo[a] + c, lo[0], lo[1]);
-      Load(node.hi[a] + c, hi[0], hi[1]);
-      for (int h = 0; h < 2; ++h) {
-        const Double2 below = lo[h] - p[a];
-        const Double2 above = p[a] - hi[h];
-        Double2 gap = below > above ? below : above;
-        gap = gap > 0 ? gap : Splat(0);
-        sum[h] += gap * gap;
-      }
-    }
-    for (int h = 0; h < 2; ++h) {
-      d2[c + 2 * h] = sum[h][0];
-      d2[c + 2 * h + 1] = sum[h][1];
-    }
-  }
-}
-
 // Squared distance from the box [q_lo, q_hi] to each child box of `node` (0 where they
 // overlap; infinite for an empty slot): a lower bound of the distance from anything in
 // the box, as from a segment in its own box.
@@ -91,6 +66,12 @@ inline void ChildDistancesSquared(const BvhNode& node, const Double2 q_lo[3], co
       d2[c + 2 * h + 1] = sum[h][1];
     }
   }
+}
+
+// Squared distance from p to each child box of `node` (0 inside; infinite for an
+// empty slot): the box form above, the box shrunk to p.
+inline void ChildDistancesSquared(const BvhNode& node, const Double2 p[3], double d2[kBvhWidth]) {
+  ChildDistancesSquared(node, p, p, d2);
 }
 
 }  // namespace hapticd::geometry::bvh_simd
