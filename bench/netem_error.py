@@ -43,6 +43,12 @@ def wire(report: dict) -> dict[str, float]:
     return {p: report[f"wire_rtt_{p}_us"] for p in PERCENTILES}
 
 
+def SETTINGS(delay_ms: float):
+    """(name, delay each way or None for straight, the relay's extra flags)."""
+    return (("straight", None, []), ("relay, no delay", 0.0, []), ("relay, delay", delay_ms, []),
+            ("relay, delay, --spin-us 100", delay_ms, ["--spin-us", "100"]))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("bin_dir", type=pathlib.Path)
@@ -56,13 +62,13 @@ def main() -> None:
     try:
         for block in range(1, args.blocks + 1):
             row = {"block": block}
-            for setting, delay in (("straight", None), ("relay, no delay", 0.0), ("relay, delay", args.delay_ms)):
+            for setting, delay, extra in SETTINGS(args.delay_ms):
                 if delay is None:
                     report = proxy(args.bin_dir, echo_start["udp"], args.block_seconds)
                     summary = None
                 else:
                     relay, relay_start = start([str(args.bin_dir / "hapticd-netem"), "--listen", "127.0.0.1:0",
-                                                "--forward", echo_start["udp"], "--delay-ms", str(delay)])
+                                                "--forward", echo_start["udp"], "--delay-ms", str(delay), *extra])
                     try:
                         report = proxy(args.bin_dir, relay_start["listen"], args.block_seconds)
                     finally:
@@ -76,13 +82,13 @@ def main() -> None:
 
     asked_us = 2000 * args.delay_ms
     print(f"Round trips of hapticd-proxy --echo at 1 kHz against hapticd-udp-echo on loopback (wire: to the "
-          f"kernel's arrival stamp), {args.blocks} blocks of {args.block_seconds:g} s, the three settings in turn "
+          f"kernel's arrival stamp), {args.blocks} blocks of {args.block_seconds:g} s, the settings in turn "
           f"in each block; the relay asked for {args.delay_ms:g} ms each way ({asked_us / 1000:g} ms a round "
           "trip). *Added* = through the relay, less the delay asked for, less straight, in the same block.\n")
     print("| block | setting | p50 µs | p99 µs | p99.9 µs | max µs | lost | relay late p99 µs (up / down) |")
     print("| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |")
     for row in rows:
-        for setting in ("straight", "relay, no delay", "relay, delay"):
+        for setting, _, _ in SETTINGS(args.delay_ms):
             cell = row[setting]
             late = "-"
             if cell["relay"]:
@@ -93,7 +99,8 @@ def main() -> None:
     print()
     print("| added by the relay (median over blocks) | p50 µs | p99 µs | p99.9 µs | max µs |")
     print("| --- | ---: | ---: | ---: | ---: |")
-    for setting, asked in (("relay, no delay", 0.0), ("relay, delay", asked_us)):
+    for setting, delay, _ in SETTINGS(args.delay_ms)[1:]:
+        asked = 2000 * delay
         added = {p: statistics.median(row[setting]["wire"][p] - asked - row["straight"]["wire"][p] for row in rows)
                  for p in PERCENTILES}
         print(f"| {setting} | {added['p50']:.1f} | {added['p99']:.1f} | {added['p999']:.1f} | {added['max']:.1f} |")

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The impairment relay's own error (issue 13): hapticd-proxy --echo against a plain UDP
-# echo straight, through hapticd-netem unimpaired, and through it with 25 ms each way, in
+# echo straight, through hapticd-netem unimpaired, through it with 25 ms each way, and the
+# same with --spin-us 100 (waking early and spinning to each release), in
 # alternating blocks of one run (bench/netem_error.py). Writes
 # bench/results/netem_error.md with the machine and the date, and the runs in
 # bench/results/raw/netem_error.jsonl. About 70 seconds after the build.

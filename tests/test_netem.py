@@ -108,9 +108,10 @@ def device():
     s.close()
 
 
-def test_each_direction_gets_its_own_delay_and_jitter_within_bounds(bin_dir, server, device):
+@pytest.mark.parametrize("spin", [[], ["--spin-us", "100"]], ids=["timer", "spin"])
+def test_each_direction_gets_its_own_delay_and_jitter_within_bounds(bin_dir, server, device, spin):
     with running_relay(bin_dir, endpoint(server), "--up-delay-ms", "10", "--down-delay-ms", "30",
-                       "--down-jitter-ms", "5") as (relay, result):
+                       "--down-jitter-ms", "5", *spin) as (relay, result):
         send_stream(device, relay, 400, 0.002)
         up = receive(server, 0.3)
         assert sorted(seq for seq, _, _ in up) == list(range(400))

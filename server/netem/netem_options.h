@@ -24,6 +24,7 @@ inline constexpr double kMaxDelayMs = 60'000;
 inline constexpr int kMaxQueueLimit = 1'000'000;
 inline constexpr int kMaxFlows = 4096;
 inline constexpr std::size_t kMaxTraceEntries = 10'000'000;
+inline constexpr int kMaxSpinUs = 1000;
 
 struct Endpoint {
   std::string host;
@@ -42,6 +43,7 @@ struct NetemOptions {
   double flow_idle_s = 60;   // a flow silent this long may be replaced by a new device
   int realtime_priority = 20;  // SCHED_FIFO when granted; 0: normal scheduling
   double duration_s = 0;       // 0: until SIGINT or SIGTERM
+  int spin_us = 0;             // wake this early before a release and spin to it (0: no spin)
 };
 
 std::string_view Usage();

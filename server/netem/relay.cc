@@ -280,7 +280,7 @@ void Relay::SendDue(int64_t now_ns) {
 void Relay::ArmTimer() {
   itimerspec spec{};
   if (!queue_.empty()) {
-    const int64_t at = std::max<int64_t>(queue_.front().release_ns, 1);
+    const int64_t at = std::max<int64_t>(queue_.front().release_ns - 1000 * options_.spin_us, 1);
     spec.it_value = {static_cast<time_t>(at / 1'000'000'000), static_cast<long>(at % 1'000'000'000)};
   }
   timerfd_settime(timer_fd_, TFD_TIMER_ABSTIME, &spec, nullptr);
@@ -310,6 +310,14 @@ void Relay::Run(int stop_fd) {
     if (fds[1].revents & POLLIN) {
       uint64_t expirations;
       (void)!read(timer_fd_, &expirations, sizeof(expirations));
+    }
+    // woken early on purpose: spin to the release
+    if (options_.spin_us > 0 && !queue_.empty()) {
+      const int64_t release = queue_.front().release_ns;
+      if (release - NowNs() <= 1000 * options_.spin_us) {
+        while (NowNs() < release) {
+        }
+      }
     }
     // what is due first, so that arrivals' work does not delay it
     SendDue(NowNs());

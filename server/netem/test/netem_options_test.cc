@@ -46,7 +46,7 @@ TEST(NetemOptions, EveryImpairment) {
   const NetemOptions o = Parse({"--jitter-distribution", "normal", "--loss-burst", "0.02,0.25,0.9,0.01", "--reorder",
                                 "10%", "--duplicate", "0.5", "--rate-kbit", "800", "--queue-limit", "50",
                                 "--max-flows", "3", "--flow-idle-s", "0.5", "--realtime-priority", "0",
-                                "--duration-s", "2"});
+                                "--duration-s", "2", "--spin-us", "100"});
   EXPECT_EQ(o.down.jitter_distribution, JitterDistribution::kNormal);
   EXPECT_TRUE(o.up.bursty);
   EXPECT_DOUBLE_EQ(o.up.burst.p, 0.02);
@@ -61,6 +61,7 @@ TEST(NetemOptions, EveryImpairment) {
   EXPECT_EQ(o.flow_idle_s, 0.5);
   EXPECT_EQ(o.realtime_priority, 0);
   EXPECT_EQ(o.duration_s, 2);
+  EXPECT_EQ(o.spin_us, 100);
 }
 
 TEST(NetemOptions, BadValuesNameTheirFlag) {
@@ -78,6 +79,7 @@ TEST(NetemOptions, BadValuesNameTheirFlag) {
       {{"--queue-limit", "0"}, "--queue-limit is \"0\""},
       {{"--max-flows", "5000"}, "--max-flows is \"5000\""},
       {{"--seed", "-3"}, "--seed is \"-3\""},
+      {{"--spin-us", "5000"}, "--spin-us is \"5000\""},
       {{"--delay-trace", "/nonexistent/trace.csv"}, "--delay-trace is \"/nonexistent/trace.csv\""},
       {{"--bogus", "1"}, "unknown option \"--bogus\""},
       {{"--sideways-delay-ms", "1"}, "unknown option \"--sideways-delay-ms\""},
