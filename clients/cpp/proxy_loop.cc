@@ -48,8 +48,7 @@ ProxyLoop::ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> 
       links_(LinksOf(channels_)),
       link_set_(links_),
       held_W_(channels_.size(), Vector3::Zero()),
-      readings_(channels_.size()),
-      previous_(channels_.size(), NoReading()),
+      readings_(channels_.size(), NoReading()),
       rtt_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()),
       wire_rtt_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()),
       lateness_(static_cast<std::size_t>(TotalTicks(options))),
@@ -69,12 +68,12 @@ ProxyLoop::ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> 
 void ProxyLoop::SendStates(double t, int64_t deadline_ns, ProxyReport& report) {
   for (std::size_t i = 0; i < channels_.size(); ++i) {
     const DeviceReading reading = channels_[i].driver->Read(t);
-    // the work the force held over the last tick did on the handle
-    if (kinds_[i] == DeviceKind::kImpedance && previous_[i].p_W.allFinite()) {
-      report.energy_j += held_W_[i].dot(reading.p_W - previous_[i].p_W);
+    // the work the force held over the last tick did on the handle (readings_ still
+    // holds the last tick's)
+    if (kinds_[i] == DeviceKind::kImpedance && readings_[i].p_W.allFinite()) {
+      report.energy_j += held_W_[i].dot(reading.p_W - readings_[i].p_W);
     }
     report.lowest_z_m = std::min(report.lowest_z_m, reading.p_W.z());
-    previous_[i] = reading;
     readings_[i] = reading;
     net::DeviceStateSample state;
     state.p_WD = reading.p_W;

@@ -112,8 +112,7 @@ class ProxyLoop {
   std::vector<CommandWatchdog> watchdogs_;
   std::vector<Vector3> held_W_;  // per channel: the force applied since its last state
   std::vector<DeviceKind> kinds_;
-  std::vector<DeviceReading> readings_;  // per channel: this tick's
-  std::vector<DeviceReading> previous_;  // per channel: the last tick's (p_W NaN before the first)
+  std::vector<DeviceReading> readings_;  // per channel: this tick's (p_W NaN before the first)
   LatencyStats rtt_;
   LatencyStats wire_rtt_;
   LatencyStats lateness_;

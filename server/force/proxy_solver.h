@@ -69,8 +69,9 @@ Vector3 CarryProxy(const scene::SceneSnapshot& scene, const Vector3& x, double r
 // about expected_motion (m) this tick, in the region that holds the proxy along that
 // motion with some room: within r plus 0.1 of the motion's length plus 20 micrometres of
 // the segment from x to x + expected_motion (a proxy at rest still slides a little, and
-// its step turns and grows from tick to tick). Only the cost depends on the guess: a query reaching farther asks the
-// scene. Triangles are gathered for a sphere only (gathered_mesh.h). Real-time safe.
+// its step turns and grows from tick to tick). Only the cost depends on the guess: a
+// query reaching farther asks the scene. Triangles are gathered for a sphere only
+// (gathered_mesh.h). Real-time safe.
 void GatherAlong(const scene::SceneSnapshot& scene, query::Neighbourhood& near, const Vector3& x, double r,
                  const Vector3& expected_motion);
 

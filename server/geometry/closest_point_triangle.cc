@@ -3,20 +3,14 @@
 #include <algorithm>
 #include <limits>
 
+#include "server/geometry/point_segment.h"
+
 namespace hapticd::geometry {
 namespace {
 
 // Below this squared sine of the angle between ab and ac, the barycentric region tests
 // cannot be trusted (their terms cancel to rounding noise).
 constexpr double kSliverSine2 = 1e-8;
-
-// Closest point of segment a-b (a degenerate triangle's edge) to p, as a parameter.
-double ClosestParameterOnSegment(const Vector3& p, const Vector3& a, const Vector3& b) {
-  const Vector3 ab = b - a;
-  const double length_squared = ab.squaredNorm();
-  if (length_squared == 0) return 0;
-  return std::clamp((p - a).dot(ab) / length_squared, 0.0, 1.0);
-}
 
 // A zero-area triangle: the best of its three edges.
 ClosestPointOnTriangle ClosestOnDegenerate(const Vector3& p, const Triangle& tri) {

@@ -103,9 +103,8 @@ PreparedTriangle PrepareTriangle(const Triangle& triangle, int index);
 // Every triangle left out is farther than the radius from the segment: it was passed
 // over by a lower bound of its distance (its box's from the segment's box, or its height
 // over its plane beside its bounding circle, as SweepSphereTriangles bounds a sweep).
-// Charges the work
-// meter like the BVH queries (one unit per node opened and per primitive tested);
-// non-finite input finds nothing.
+// Charges the work meter like the BVH queries (one unit per node opened and per
+// primitive tested); non-finite input finds nothing.
 int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<PreparedTriangle> out);
 
 // SweepSphereMesh over the given triangles instead of a whole mesh, with its decisions

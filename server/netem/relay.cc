@@ -56,10 +56,6 @@ bool SameAddress(const sockaddr_in& a, const sockaddr_in& b) {
   return a.sin_port == b.sin_port && a.sin_addr.s_addr == b.sin_addr.s_addr;
 }
 
-bool Later(const auto& a, const auto& b) {
-  return a.release_ns != b.release_ns ? a.release_ns > b.release_ns : a.order > b.order;
-}
-
 // The receive batch: fixed buffers, filled by one recvmmsg.
 struct Batch {
   std::array<std::array<uint8_t, kMaxDatagram>, kBatch> data;
@@ -206,7 +202,7 @@ void Relay::Enqueue(int direction, int slot, const uint8_t* data, int bytes, int
     buffers_[buffer].assign(data, data + bytes);
     stats.applied.Record(fate.release_ns - now_ns);
     queue_.push_back({fate.release_ns, next_order_++, direction, slot, flow.generation, buffer, bytes});
-    std::push_heap(queue_.begin(), queue_.end(), [](const Pending& a, const Pending& b) { return Later(a, b); });
+    std::push_heap(queue_.begin(), queue_.end(), Pending::Later);
     ++queued_[direction];
     queued_bytes_[direction] += bytes;
   }
@@ -247,9 +243,8 @@ void Relay::ReceiveFromServer(int slot, int64_t now_ns) {
 }
 
 void Relay::SendDue(int64_t now_ns) {
-  const auto later = [](const Pending& a, const Pending& b) { return Later(a, b); };
   while (!queue_.empty() && queue_.front().release_ns <= now_ns) {
-    std::pop_heap(queue_.begin(), queue_.end(), later);
+    std::pop_heap(queue_.begin(), queue_.end(), Pending::Later);
     const Pending p = queue_.back();
     queue_.pop_back();
     --queued_[p.direction];

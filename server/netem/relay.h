@@ -70,6 +70,10 @@ class Relay {
     uint64_t generation;  // the slot's flow when queued
     int buffer;      // index in buffers_
     int bytes;
+    // The heap's order: the later release (of equal ones, the later arrival) sinks.
+    static bool Later(const Pending& a, const Pending& b) {
+      return a.release_ns != b.release_ns ? a.release_ns > b.release_ns : a.order > b.order;
+    }
   };
 
   void ReceiveFromDevices(int64_t now_ns);

@@ -18,7 +18,7 @@ double DistanceSquaredToBox(const geometry::Aabb& box, const Vector3& p) {
 // triangles left out. Negative (or NaN) when nothing is known there.
 double KnownReach(const GatheredMesh& near, const Vector3& p) {
   const geometry::Capsule& region = near.region_B;
-  return region.radius - DistanceToSegment(p, region.p0, region.p1) - kGatheredSlack;
+  return region.radius - geometry::CalcPointSegmentDistance(p, region.p0, region.p1) - kGatheredSlack;
 }
 
 }  // namespace

@@ -8,16 +8,16 @@
 // segment (a ball when its ends are equal), so every triangle left out is farther than
 // radius from the segment. A query whose answer lies within radius - (p's distance from
 // the segment) of its point p (less a slack) can then only be answered by gathered
-// triangles: the answer over them is the answer over the mesh. Otherwise the query says so (nullopt) and the caller asks the mesh's
-// backend. The decisions are the mesh queries' own, on the same double-precision
+// triangles: the answer over them is the answer over the mesh. Otherwise the query says
+// so (nullopt) and the caller asks the mesh's backend. The decisions are the mesh queries' own, on the same double-precision
 // triangles; only the choice among exact ties (several triangles equally near, or
 // touched at the same t) may name another triangle than a BVH traversal would.
 
-#include <algorithm>
 #include <optional>
 #include <span>
 
 #include "server/geometry/mesh_queries.h"
+#include "server/geometry/point_segment.h"
 #include "server/geometry/sphere_sweep.h"
 
 namespace hapticd::query {
@@ -33,16 +33,8 @@ struct GatheredMesh {
   bool gathered() const { return region_B.radius >= 0; }
 };
 
-// The distance from p to the segment a -> b (to a when they are equal).
-inline double DistanceToSegment(const Vector3& p, const Vector3& a, const Vector3& b) {
-  const Vector3 d = b - a;
-  const double length_squared = d.squaredNorm();
-  const double t = length_squared > 0 ? std::clamp((p - a).dot(d) / length_squared, 0.0, 1.0) : 0.0;
-  return (p - (a + t * d)).norm();
-}
-
-// What an answer must lie inside the gathered ball by (m) to be the mesh's: far above the
-// rounding of the distances and the frames' changes and above the queries' own
+// What an answer must lie inside the gathered region by (m) to be the mesh's: far above
+// the rounding of the distances and the frames' changes and above the queries' own
 // tolerances (1e-8 m at most: a resting sphere's gap), far below any margin worth
 // gathering.
 inline constexpr double kGatheredSlack = 1e-6;

@@ -82,8 +82,9 @@ class Neighbourhood {
   // For the queries (scene_queries.cc): whether everything within reach of p_W lies
   // within the region (false when nothing is gathered).
   bool Holds(const Vector3& p_W, double reach) const {
-    return gathered() &&
-           DistanceToSegment(p_W, region_W_.p0, region_W_.p1) + reach + kGatheredSlack <= region_W_.radius;
+    if (!gathered()) return false;
+    return geometry::CalcPointSegmentDistance(p_W, region_W_.p0, region_W_.p1) + reach + kGatheredSlack <=
+           region_W_.radius;
   }
   // Calls visit(i, mesh) for each gathered object i whose bounds overlap box (closed;
   // objects without finite bounds always), in scene order, until a visit returns false;
