@@ -156,6 +156,28 @@ def test_independent_loss_has_its_rate_and_the_summary_counts_it(bin_dir, server
     assert summary["out"] == len(got)
 
 
+def test_a_stopped_relay_counts_what_had_arrived_and_what_it_held(bin_dir, server, device):
+    process = subprocess.Popen(
+        [str(bin_dir / "hapticd-netem"), "--listen", "127.0.0.1:0", "--forward", endpoint(server),
+         "--delay-ms", "60000", "--realtime-priority", "0"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    host, port = json.loads(process.stdout.readline())["listen"].rsplit(":", 1)
+    for seq in range(20):  # taken in and held for a minute
+        device.sendto(HEADER.pack(seq, 0), (host, int(port)))
+    time.sleep(0.2)
+    # paused, it cannot read the next ones before the stop comes: it wakes with both
+    # the stop and 30 datagrams waiting
+    process.send_signal(signal.SIGSTOP)
+    for seq in range(20, 50):
+        device.sendto(HEADER.pack(seq, 0), (host, int(port)))
+    process.send_signal(signal.SIGTERM)
+    process.send_signal(signal.SIGCONT)
+    out, err = process.communicate(timeout=10)
+    assert process.returncode == 0, err
+    up = json.loads(out.strip().splitlines()[-1])["up"]
+    assert (up["in"], up["held"], up["out"], up["unsent"]) == (50, 50, 0, 0)
+
+
 def missing_runs(received: set[int], count: int) -> list[int]:
     runs, run = [], 0
     for seq in range(count):

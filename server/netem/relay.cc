@@ -83,13 +83,13 @@ Batch& TheBatch() {
   return batch;
 }
 
-void AppendDirection(std::string& out, const char* name, const DirectionStats& s) {
+void AppendDirection(std::string& out, const char* name, const DirectionStats& s, int held) {
   const auto ms = [](const DelayHistogram& h, double q) { return static_cast<double>(h.Quantile(q)) / 1e6; };
   out += fmt::format(
       "\"{}\": {{\"in\": {}, \"out\": {}, \"lost\": {}, \"duplicated\": {}, \"reordered\": {}, \"overflow\": {}, "
-      "\"unsent\": {}, \"delay_ms\": {{\"p50\": {:.4f}, \"p99\": {:.4f}, \"max\": {:.4f}}}, "
+      "\"unsent\": {}, \"held\": {}, \"delay_ms\": {{\"p50\": {:.4f}, \"p99\": {:.4f}, \"max\": {:.4f}}}, "
       "\"late_ms\": {{\"p50\": {:.4f}, \"p99\": {:.4f}, \"max\": {:.4f}}}}}",
-      name, s.in, s.out, s.lost, s.duplicated, s.reordered, s.overflow, s.unsent, ms(s.applied, 0.5),
+      name, s.in, s.out, s.lost, s.duplicated, s.reordered, s.overflow, s.unsent, held, ms(s.applied, 0.5),
       ms(s.applied, 0.99), ms(s.applied, 1), ms(s.late, 0.5), ms(s.late, 0.99), ms(s.late, 1));
 }
 
@@ -295,13 +295,13 @@ void Relay::Run(int stop_fd) {
       slot_of.push_back(i);
     }
     const int64_t now = NowNs();
-    if (now >= end) return;
+    if (now >= end) return ReceiveWaiting(now);
     const int64_t wait_ns = std::min<int64_t>(end - now, 1'000'000'000);
     const timespec timeout{static_cast<time_t>(wait_ns / 1'000'000'000), static_cast<long>(wait_ns % 1'000'000'000)};
     if (ppoll(fds.data(), fds.size(), &timeout, nullptr) < 0 && errno != EINTR) {
       throw std::runtime_error(fmt::format("ppoll: {}", std::strerror(errno)));
     }
-    if (fds[0].revents & POLLIN) return;
+    if (fds[0].revents & POLLIN) return ReceiveWaiting(NowNs());
     if (fds[1].revents & POLLIN) {
       uint64_t expirations;
       (void)!read(timer_fd_, &expirations, sizeof(expirations));
@@ -326,11 +326,18 @@ void Relay::Run(int stop_fd) {
   }
 }
 
+void Relay::ReceiveWaiting(int64_t now_ns) {
+  ReceiveFromDevices(now_ns);
+  for (int i = 0; i < static_cast<int>(flows_.size()); ++i) {
+    if (flows_[i] != nullptr) ReceiveFromServer(i, now_ns);
+  }
+}
+
 std::string Relay::SummaryJson() const {
   std::string out = "{";
-  AppendDirection(out, "up", stats_[0]);
+  AppendDirection(out, "up", stats_[0], queued_[0]);
   out += ", ";
-  AppendDirection(out, "down", stats_[1]);
+  AppendDirection(out, "down", stats_[1], queued_[1]);
   int active = 0;
   for (const auto& flow : flows_) active += flow != nullptr;
   out += fmt::format(", \"flows\": {}, \"flows_now\": {}, \"refused\": {}, \"truncated\": {}, \"realtime\": {}}}",

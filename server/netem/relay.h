@@ -54,7 +54,9 @@ class Relay {
   // Whether SCHED_FIFO was granted.
   bool realtime() const { return realtime_; }
 
-  // Relays until stop_fd is readable or duration_s has passed (0: no limit).
+  // Relays until stop_fd is readable or duration_s has passed (0: no limit); then
+  // takes in what has arrived, so that the summary counts every datagram that
+  // reached the relay (what is still delayed is counted as held, not sent).
   void Run(int stop_fd);
 
   // One JSON object: each direction's counts and delays, the flows.
@@ -81,6 +83,7 @@ class Relay {
   void Enqueue(int direction, int slot, const uint8_t* data, int bytes, int64_t now_ns);
   int FlowFor(const sockaddr_in& device, int64_t now_ns);
   void SendDue(int64_t now_ns);
+  void ReceiveWaiting(int64_t now_ns);
   void ArmTimer();
 
   NetemOptions options_;
