@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <stdexcept>
+#include <string_view>
 #include <vector>
 
 #include "server/force/session_settings.h"
@@ -42,6 +43,9 @@ struct DeviceSpec {
   double damping = 0;              // N·s/m, >= 0: the mechanism's own viscous friction
   double position_resolution = 0;  // m, >= 0: the sensed position's quantum (0: exact)
   Vector3 start_W = Vector3::Zero();  // where the handle starts, at rest
+  // s, >= 0, admittance only: the robot follows its pose command as a first-order lag
+  // with this time constant (0: it arrives by the end of the tick).
+  double response_time_s = 0;
 };
 
 // The network between device and renderer, the same in both directions.
@@ -51,6 +55,18 @@ struct ChannelSpec {
   double loss = 0;      // in [0, 1]: the probability that a message is lost
   uint64_t seed = 1;
 };
+
+// How the device and the renderer share the work across the channel (FORMAT.md's
+// `remote`; left out: direct, no passivity, no deadband).
+enum class RemoteMode { kDirect, kLocalModel };
+struct RemoteSpec {
+  RemoteMode mode = RemoteMode::kDirect;
+  bool tdpa = false;    // two-port time-domain passivity (remote/two_port_passivity.h)
+  double deadband = 0;  // Weber fraction in [0, 1), 0: every tick sends
+};
+
+// "direct", "local_model".
+std::string_view RemoteModeName(RemoteMode mode);
 
 struct Scenario {
   double rate_hz = 1000;   // > 0: the loop's rate
@@ -62,6 +78,7 @@ struct Scenario {
   DeviceSpec device;
   HandSpec hand;
   ChannelSpec channel;
+  RemoteSpec remote;
 };
 
 }  // namespace hapticd::sim

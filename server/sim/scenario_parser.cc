@@ -227,7 +227,7 @@ void ReadAvatar(const JsonAt& at, force::AvatarSettings& avatar) {
 
 void ReadDevice(const JsonAt& at, Scenario& scenario) {
   const JsonObject object(at, {"mode", "mass", "damping", "max_force", "position_resolution", "start",
-                               "virtual_mass", "virtual_damping"});
+                               "virtual_mass", "virtual_damping", "response_time_s"});
   force::SessionSettings& session = scenario.session;
   session.device.mode = ReadEnum<force::DeviceMode>(
       object.Required("mode"), NamesOf(force::DeviceMode::kAdmittance, force::DeviceModeName));
@@ -243,6 +243,38 @@ void ReadDevice(const JsonAt& at, Scenario& scenario) {
   }
   if (const auto damping = object.Optional("virtual_damping")) {
     session.admittance.virtual_damping = ReadNonNegative(*damping);
+  }
+  if (const auto response = object.Optional("response_time_s")) {
+    scenario.device.response_time_s = ReadNonNegative(*response);
+    if (scenario.device.response_time_s > 0 && session.device.mode != force::DeviceMode::kAdmittance) {
+      throw ScenarioError(fmt::format("{} is {}; it applies to device.mode admittance only", response->path,
+                                      scenario.device.response_time_s));
+    }
+  }
+}
+
+void ReadRemote(const JsonAt& at, Scenario& scenario) {
+  const JsonObject object(at, {"mode", "passivity", "deadband"});
+  RemoteSpec& remote = scenario.remote;
+  if (const auto mode = object.Optional("mode")) {
+    remote.mode = ReadEnum<RemoteMode>(*mode, NamesOf(RemoteMode::kLocalModel, RemoteModeName));
+  }
+  if (const auto passivity = object.Optional("passivity")) {
+    static constexpr std::string_view kPassivities[] = {"none", "tdpa"};
+    remote.tdpa = ReadChoice(*passivity, kPassivities) == 1;
+    if (remote.tdpa && scenario.session.device.mode != force::DeviceMode::kImpedance) {
+      throw ScenarioError(fmt::format(
+          "{} is tdpa, which hapticd-sim implements for device.mode impedance only (the admittance end's "
+          "damper is not built yet)",
+          passivity->path));
+    }
+  }
+  if (const auto deadband = object.Optional("deadband")) {
+    remote.deadband = ReadNonNegative(*deadband);
+    if (!(remote.deadband < 1)) {
+      throw ScenarioError(
+          fmt::format("{} is {}; a Weber fraction must be >= 0 and < 1", deadband->path, remote.deadband));
+    }
   }
 }
 
@@ -312,7 +344,7 @@ void ValidatePlant(const Scenario& scenario) {
 
 Scenario ReadScenario(const JsonAt& root, const std::filesystem::path& base_dir) {
   const JsonObject top(
-      root, {"rate_hz", "duration_s", "scene", "avatar", "device", "hand", "channel", "control"});
+      root, {"rate_hz", "duration_s", "scene", "avatar", "device", "hand", "channel", "control", "remote"});
   Scenario scenario;
   // time: a whole number of ticks, at least one
   scenario.rate_hz = ReadPositive(top.Required("rate_hz"));
@@ -335,6 +367,7 @@ Scenario ReadScenario(const JsonAt& root, const std::filesystem::path& base_dir)
       scenario.session.control.passivity = ReadBool(*passivity);
     }
   }
+  if (const auto remote = top.Optional("remote")) ReadRemote(*remote, scenario);
   scenario.session.device.rate_hz = scenario.rate_hz;
   ValidateSession(scenario.session);
   ValidatePlant(scenario);

@@ -9,6 +9,7 @@ SimDevice::SimDevice(const Scenario& scenario)
       dt_(1 / scenario.rate_hz),
       resolution_(scenario.device.position_resolution),
       max_force_(scenario.session.device.max_force),
+      response_time_s_(scenario.device.response_time_s),
       plant_(scenario.hand, scenario.device, dt_),
       p_W_(scenario.device.start_W),
       q_last_W_(Quantize(scenario.device.start_W)),
@@ -59,8 +60,10 @@ void SimDevice::Advance(double t) {
     energy_j_ += f_held_W_.dot(p_W_ - p_before);
     return;
   }
-  // admittance: ideal tracking of the pose command within the tick
-  p_W_ = target_W_;
+  // admittance: ideal tracking of the pose command within the tick, or the servo's
+  // first-order lag towards it
+  p_W_ = response_time_s_ > 0 ? Vector3(target_W_ + (p_before - target_W_) * std::exp(-dt_ / response_time_s_))
+                              : target_W_;
   v_W_ = (p_W_ - p_before) / dt_;
   energy_j_ += -f_hand_W_.dot(p_W_ - p_before);
 }

@@ -5,7 +5,10 @@
 // simulator's theory of operation, simulator.h, says how). The loop calls, each tick k:
 // Sample(t_k), then Accept() for a command that arrived (if any), then Advance(t_k).
 
+#include <memory>
 #include <optional>
+
+#include "server/remote/local_model.h"
 
 #include "server/sim/hand_device.h"
 #include "server/sim/scenario.h"
@@ -18,12 +21,19 @@ struct DeviceState {
   Vector3 v_W = Vector3::Zero();         // sensed velocity
   Vector3 f_held_W = Vector3::Zero();    // impedance: the force held over the last tick
   Vector3 f_sensed_W = Vector3::Zero();  // admittance: the hand's force at the handle
+  // remote (simulator.h): the device's channel energy in; local_model: the device's
+  // proxy and the version of the model it renders
+  double energy_in = 0;
+  Vector3 avatar_W = Vector3::Zero();
+  uint64_t model_version = 0;
 };
 
 // What the renderer sends down each tick.
 struct DeviceCommand {
   Vector3 f_W = Vector3::Zero();  // impedance: the force to render
   Vector3 p_W = Vector3::Zero();  // admittance: where to move the handle
+  double energy_in = 0;           // remote: the renderer's channel energy in
+  std::shared_ptr<const remote::LocalModel> model;  // local_model: a new model, else null
 };
 
 class SimDevice {
@@ -55,6 +65,7 @@ class SimDevice {
   double dt_;
   double resolution_;
   double max_force_;
+  double response_time_s_;  // admittance: the servo's lag (0: none)
   ImpedancePlant plant_;  // impedance: hand and handle; admittance: only its hand is used
   Vector3 p_W_;
   Vector3 v_W_ = Vector3::Zero();

@@ -69,6 +69,17 @@ std::string FormatSummaryJson(const SimSummary& summary) {
   WriteCount(writer, "ticks_without_input", static_cast<uint64_t>(summary.ticks_without_input));
   WriteCount(writer, "ticks_without_command", static_cast<uint64_t>(summary.ticks_without_command));
   WriteCount(writer, "substeps", static_cast<uint64_t>(summary.substeps));
+  // remote (FORMAT.md's three, then the extras)
+  WriteCount(writer, "packets_up", summary.packets_up);
+  WriteCount(writer, "packets_down", summary.packets_down);
+  WriteNumber(writer, "channel_energy_j", summary.channel_energy_j);
+  WriteNumber(writer, "max_drift_m", summary.max_drift_m);
+  WriteCount(writer, "tdpa_device_activations", summary.tdpa_device_activations);
+  WriteCount(writer, "tdpa_renderer_activations", summary.tdpa_renderer_activations);
+  WriteCount(writer, "models_taken", summary.models_taken);
+  WriteCount(writer, "model_blends", summary.model_blends);
+  WriteCount(writer, "ticks_outside_model", static_cast<uint64_t>(summary.ticks_outside_model));
+  WriteNumber(writer, "max_model_radius_m", summary.max_model_radius_m);
   writer.EndObject();
   return buffer.GetString();
 }

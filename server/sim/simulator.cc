@@ -9,6 +9,8 @@
 #include "server/query/scene_queries.h"
 #include "server/sim/channel.h"
 #include "server/sim/sim_device.h"
+#include "server/remote/deadband.h"
+#include "server/remote/two_port_passivity.h"
 
 namespace hapticd::sim {
 namespace {
@@ -61,6 +63,10 @@ scene::Pose PoseAt(const scene::ObjectSpec& spec, double t) {
 
 }  // namespace
 
+std::string_view RemoteModeName(RemoteMode mode) {
+  return mode == RemoteMode::kDirect ? "direct" : "local_model";
+}
+
 Simulator::Simulator(Scenario scenario)
     : scenario_(std::move(scenario)),
       builder_(BuildScene(scenario_)),
@@ -91,6 +97,11 @@ SimSummary Simulator::Run(const TraceSink& trace) {
   const double dt = 1 / rate_hz;
   const double radius = scenario_.session.avatar.radius;
   const bool admittance = scenario_.session.device.mode == force::DeviceMode::kAdmittance;
+  const RemoteSpec& remote = scenario_.remote;
+  const bool local = remote.mode == RemoteMode::kLocalModel;
+  const double weber = remote.deadband;
+  const double max_velocity = scenario_.session.device.max_velocity;
+  const double max_force = scenario_.session.device.max_force;
 
   SimDevice device(scenario_);
   Channel<DeviceState> up(scenario_.channel, rate_hz, kUpStream, scenario_.ticks);
@@ -98,6 +109,16 @@ SimSummary Simulator::Run(const TraceSink& trace) {
   session_.Reset(scenario_.device.start_W);
   force::DeviceInput input;  // the renderer's newest device state
   input.p_WD = scenario_.device.start_W;
+
+  // the two ends of the channel (remote/two_port_passivity.h)
+  remote::ChannelPort device_port(remote.tdpa, scenario_.device.mass);
+  remote::ChannelPort renderer_port(remote.tdpa);
+  remote::StateDeadband state_deadband(weber);
+  std::optional<remote::LocalRenderer> local_renderer;
+  if (local) {
+    local_renderer.emplace(scenario_.session);
+    local_renderer->Reset(scenario_.device.start_W);
+  }
 
   SimSummary summary;
   summary.ticks = scenario_.ticks;
@@ -110,41 +131,192 @@ SimSummary Simulator::Run(const TraceSink& trace) {
         std::max(summary.max_avatar_penetration_m, CalcPenetration(device.p_W(), radius));
   };
 
+  // device end
+  Vector3 q_last_W = scenario_.device.start_W;  // the last sensed position
+  Vector3 v_last_W = Vector3::Zero();           // and velocity
+  DeviceCommand held;                           // the newest command (direct)
+  bool has_command = false;
+  // renderer end
+  Vector3 received_W = scenario_.device.start_W;  // the newest state's position (predicted)
+  Vector3 received_v_W = Vector3::Zero();
+  int64_t received_tick = 0;
+  Vector3 device_avatar_W = scenario_.device.start_W;  // local_model: the device's proxy, as it last said
+  Vector3 rendered_p_W = scenario_.device.start_W;  // the session's last input: behind received_W under tdpa
+  Vector3 f_env_W = Vector3::Zero();                // the session's last force
+  Vector3 last_pose_W = scenario_.device.start_W;   // admittance: the last pose commanded
+  DeviceCommand sent;                               // the last command sent (deadband)
+  bool sent_any = false;
+  std::shared_ptr<const remote::LocalModel> model;  // the last model cut
+  std::vector<int64_t> model_tick = {0};            // tick each version was sent, by version
+  uint64_t acked_version = 0;
+  double round_trip_s = -1;  // the largest measured; < 0 before the first
+  int64_t acked_tick = 0;    // when the newest version was first acked
+  double longest_gap_s = 0;  // the longest the device went without a newer model (loss)
+  // the model a session opens with, over the control channel before the first tick
+  auto model_radius = [&] {
+    return remote::ModelRadius(max_velocity, round_trip_s < 0 ? kInitialRoundTripS : round_trip_s,
+                               std::max(weber > 0 ? 0.0 : dt, longest_gap_s), radius);
+  };
+  if (local) {
+    model = std::make_shared<const remote::LocalModel>(
+        remote::CutLocalModel(*snapshot_, scenario_.device.start_W, model_radius() / (1 - weber), 1, 0));
+    model_tick.push_back(0);
+    summary.max_model_radius_m = model->radius;
+    if (local_renderer->Accept(*model, 0)) ++summary.models_taken;
+  }
+
+  // The device's port observes the last tick's work at each sample.
+  auto observe_device = [&](const DeviceState& state) {
+    const Vector3 moved = state.p_W - q_last_W;
+    device_port.Observe(admittance ? -state.f_sensed_W.dot(moved) : state.f_held_W.dot(moved));
+  };
+  // The device holds a force (impedance) or follows a pose, through its port.
+  auto render = [&](const DeviceCommand& command, const DeviceState& state) {
+    if (admittance || !remote.tdpa) return device.Accept(command);
+    // the port limits what the device can render: the force saturated first
+    DeviceCommand limited = command;
+    const double norm = command.f_W.norm();
+    if (norm > max_force) limited.f_W *= max_force / norm;
+    const Vector3 v_mid = state.v_W + 0.5 * (state.v_W - v_last_W);
+    limited.f_W = device_port.LimitForce(limited.f_W, v_mid, dt);
+    summary.tdpa_device_activations += device_port.active() ? 1 : 0;
+    device.Accept(limited);
+  };
+
   for (int64_t k = 0; k < scenario_.ticks; ++k) {
     const double t = static_cast<double>(k) / rate_hz;
-    // device: sample and send up
-    up.Send(k, device.Sample(t));
+    DeviceState state = device.Sample(t);
+    observe_device(state);
 
-    // renderer: the newest state that has arrived, else the last one, not fresh
+    // local_model: the device renders first, from the newest model it has
+    force::TickOutput local_output;
+    if (local) {
+      if (const std::optional<DeviceCommand> command = down.Receive(k)) {
+        device_port.ReceiveOtherIn(command->energy_in);
+        if (command->model && local_renderer->Accept(*command->model, t)) ++summary.models_taken;
+      } else {
+        ++summary.ticks_without_command;
+      }
+      force::DeviceInput own{true, state.p_W, state.v_W, state.f_held_W, state.f_sensed_W};
+      local_output = local_renderer->Tick(own, dt);
+      if (!local_renderer->Covers(local_output.avatar_W)) ++summary.ticks_outside_model;
+      render(DeviceCommand{local_output.f_W, local_output.p_command_W}, state);
+      state.avatar_W = local_output.avatar_W;
+      state.model_version = local_renderer->model_version();
+    }
+
+    // device: send up (the deadband may hold it back)
+    state.energy_in = device_port.energy().in;
+    if (state_deadband.Offer(t, state.p_W, state.v_W)) up.Send(k, state);
+
+    // renderer: the newest state that has arrived, else the last one (predicted on
+    // under a deadband), not fresh
     input.fresh = false;
-    if (const std::optional<DeviceState> state = up.Receive(k)) {
+    if (const std::optional<DeviceState> arrived = up.Receive(k)) {
       input.fresh = true;
-      input.p_WD = state->p_W;
-      input.v_WD = state->v_W;
-      input.f_held_W = state->f_held_W;
-      input.f_sensed_W = state->f_sensed_W;
+      received_W = arrived->p_W;
+      received_v_W = arrived->v_W;
+      received_tick = k;
+      device_avatar_W = arrived->avatar_W;
+      input.v_WD = arrived->v_W;
+      input.f_held_W = arrived->f_held_W;
+      input.f_sensed_W = arrived->f_sensed_W;
+      renderer_port.ReceiveOtherIn(arrived->energy_in);
+      // a model's round trip: from its sending to the first state that renders it
+      if (arrived->model_version > acked_version && arrived->model_version < model_tick.size()) {
+        acked_version = arrived->model_version;
+        round_trip_s = std::max(round_trip_s, static_cast<double>(k - model_tick[acked_version]) * dt);
+        if (weber == 0) longest_gap_s = std::max(longest_gap_s, static_cast<double>(k - acked_tick) * dt);
+        acked_tick = k;
+      }
     } else {
       ++summary.ticks_without_input;
     }
-    const force::TickOutput output = session_.Tick(*snapshot_, input, dt);
-    down.Send(k, DeviceCommand{output.f_W, output.p_command_W});
-
-    // device: the newest command that has arrived
-    if (const std::optional<DeviceCommand> command = down.Receive(k)) {
-      device.Accept(*command);
+    const Vector3 target_W =
+        weber > 0 ? Vector3(received_W + received_v_W * (static_cast<double>(k - received_tick) * dt)) : received_W;
+    Vector3 step = target_W - rendered_p_W;
+    if (remote.tdpa) {
+      remote::EnvironmentNear near;
+      near.f_W = f_env_W;
+      const double reach = step.norm() + 1e-3;
+      const query::SceneContact contact = query::FindDeepestContact(*snapshot_, rendered_p_W, radius, reach);
+      if (contact.object >= 0) {
+        near.normal_W = contact.normal_W;
+        near.gap = std::max(-contact.depth, 0.0);
+        near.stiffness = snapshot_->object(contact.object).material.stiffness;
+        near.damping = snapshot_->object(contact.object).material.damping;
+        // a kinematic surface coming towards the avatar
+        const double towards = snapshot_->object(contact.object).CalcPointVelocity(contact.point_W).dot(contact.normal_W);
+        near.approach = std::max(towards, 0.0) * dt;
+      }
+      step = renderer_port.LimitStep(step, near, dt);
+      summary.tdpa_renderer_activations += renderer_port.active() ? 1 : 0;
+      input.v_WD = step / dt;  // the avatar input's own motion, which its damping meets
+      rendered_p_W += step;
     } else {
-      ++summary.ticks_without_command;
+      rendered_p_W = target_W;
     }
+    summary.max_drift_m = std::max(summary.max_drift_m, (target_W - rendered_p_W).norm());
+    input.p_WD = rendered_p_W;
+    const force::TickOutput output = session_.Tick(*snapshot_, input, dt);
+    // the renderer's port: what its input pushed into the environment
+    if (admittance) {
+      renderer_port.Observe(output.f_W.dot(output.p_command_W - last_pose_W));
+      last_pose_W = output.p_command_W;
+    } else {
+      renderer_port.Observe(-output.f_W.dot(step));
+    }
+    f_env_W = output.f_W;
+
+    // renderer: send down
+    DeviceCommand command{output.f_W, output.p_command_W, renderer_port.energy().in, nullptr};
+    if (local) {
+      // about the device's proxy (where the features it touches are), out to the device
+      // point's reach
+      const double reach = model_radius() + (target_W - device_avatar_W).norm();
+      const bool cut = weber == 0 || model == nullptr ||
+                       (device_avatar_W - model->center_W).norm() > weber * model->radius ||
+                       reach > (1 - weber) * model->radius;
+      if (cut) {
+        model = std::make_shared<const remote::LocalModel>(
+            remote::CutLocalModel(*snapshot_, device_avatar_W, reach / (1 - weber), model_tick.size(), t));
+        model_tick.push_back(k);
+        summary.max_model_radius_m = std::max(summary.max_model_radius_m, model->radius);
+        command.model = model;
+        down.Send(k, command);
+      }
+    } else {
+      const bool changed = admittance ? (command.p_W - sent.p_W).norm() > remote::kPositionFloorM
+                                      : remote::ExceedsDeadband(command.f_W, sent.f_W, weber, remote::kForceFloorN);
+      if (weber == 0 || !sent_any || changed) {
+        down.Send(k, command);
+        sent = command;
+        sent_any = true;
+      }
+      // device: the newest command that has arrived
+      if (const std::optional<DeviceCommand> arrived = down.Receive(k)) {
+        device_port.ReceiveOtherIn(arrived->energy_in);
+        held = *arrived;
+        has_command = true;
+        render(held, state);
+      } else {
+        ++summary.ticks_without_command;
+        if (has_command && remote.tdpa && !admittance) render(held, state);
+      }
+    }
+    q_last_W = state.p_W;
+    v_last_W = state.v_W;
 
     // measures and trace at the sample x_k
-    const Vector3 avatar_W = admittance ? output.p_command_W : output.avatar_W;
+    const force::TickOutput& shown = local ? local_output : output;
+    const Vector3 avatar_W = admittance ? shown.p_command_W : shown.avatar_W;
     measure_device();
     summary.max_proxy_penetration_m =
         std::max(summary.max_proxy_penetration_m, CalcPenetration(avatar_W, radius));
     summary.max_force_n = std::max(summary.max_force_n, device.force_W().norm());
-    summary.contact_ticks += output.contact ? 1 : 0;
+    summary.contact_ticks += shown.contact ? 1 : 0;
     summary.final_avatar_W = avatar_W;
-    if (trace) trace(TraceRow{t, device.p_W(), device.v_W(), avatar_W, device.force_W(), output.contact});
+    if (trace) trace(TraceRow{t, device.p_W(), device.v_W(), avatar_W, device.force_W(), shown.contact});
 
     // the tick's motion, then the scene at t_k+1
     device.Advance(t);
@@ -156,10 +328,16 @@ SimSummary Simulator::Run(const TraceSink& trace) {
 
   summary.energy_j = device.energy_j();
   summary.final_device_W = device.p_W();
-  summary.observed_energy_j = session_.observed_energy();
-  summary.counters = session_.counters();
+  summary.observed_energy_j = (local ? local_renderer->session() : session_).observed_energy();
+  summary.counters = (local ? local_renderer->session() : session_).counters();
   summary.packets_lost_up = up.lost();
   summary.packets_lost_down = down.lost();
+  summary.packets_up = up.sent();
+  summary.packets_down = down.sent();
+  const remote::PortEnergy& d = device_port.energy();
+  const remote::PortEnergy& r = renderer_port.energy();
+  summary.channel_energy_j = (d.out - d.in) + (r.out - r.in);
+  if (local) summary.model_blends = static_cast<uint64_t>(local_renderer->blends());
   return summary;
 }
 

@@ -30,10 +30,43 @@
 //   robot carries the hand's inertia; the force it senses is the hand's spring-damper
 //   force K_h (path - x) + B_h (path' - v) at the sample (hand.mass is not used). The
 //   energy counts the force the device applies to the hand, -f_hand,k, over the
-//   displacement: positive means the robot pushed the person.
+//   displacement: positive means the robot pushed the person. With
+//   device.response_time_s = tau > 0 the handle instead follows the command as a
+//   first-order lag: x_k+1 = p + (x_k - p) exp(-dt / tau).
 // - Kinematic objects (the "motion" extension) move at their constant velocity: after
 //   each tick their poses are set to the exact pose at t_k+1 with
 //   SceneBuilder::MoveKinematic and a new snapshot is built, as a client's edit would.
+// - Remote (FORMAT.md's `remote`; server/remote/): the messages each way carry, besides
+//   the state or the command, the sender's channel energy `in` (two_port_passivity.h),
+//   and the state carries the device's proxy and the version of the model it renders.
+//   The device's port observes F_k-1 . (q_k - q_k-1) at each sample (sensed positions;
+//   admittance: -f_sensed over the move), the renderer's port -F . (its avatar input's
+//   step) after each tick; channel_energy_j is the two ports' out - in, summed.
+//   * direct: as above. With tdpa the renderer's input steps towards the newest state
+//     through its port's LimitStep (the environment: its last force, the nearest
+//     surface and that object's stiffness), and the device holds, each tick, the
+//     newest command through its port's LimitForce at the velocity extrapolated to the
+//     middle of the tick (v_k + (v_k - v_k-1) / 2).
+//   * local_model: each tick the device first takes the newest model that arrived
+//     (remote::LocalRenderer::Accept), renders from it with its sample (no delay), and
+//     sends its state up; the renderer runs its own session on the states as they
+//     arrive (for its port) and cuts a model about the device's proxy as the newest
+//     state gives it (remote::CutLocalModel) of radius ModelRadius(max_velocity,
+//     measured round trip, the interval until the next model, avatar radius) plus the
+//     device point's distance from its proxy, the interval being the longest the
+//     device has gone without a newer model (loss), at least a tick. The round trip is the
+//     largest measured: the ticks from sending a model to the first state that says
+//     the device renders it (before any: kInitialRoundTripS). The session opens with a
+//     model cut about the start (version 1, as over the control channel before the
+//     first tick: not in packets_down).
+//   * deadband w > 0: a state goes up only when remote::StateDeadband offers it (the
+//     renderer predicts in between: the last position received moved on at the last
+//     velocity, per tick since it arrived); a direct command only when its force
+//     leaves the force deadband (w |F_sent| + kForceFloorN; a pose: kPositionFloorM);
+//     a model only when the device's proxy has left the middle w R of the last model
+//     sent or its reach has outgrown (1 - w) R, its radius R being the reach above
+//     (with no interval) / (1 - w). Without
+//     deadband every tick sends, a model too.
 // - Measures at every sample x_k (and the final x_ticks), true positions throughout:
 //   max_penetration_m = max(0, depth of the device point in the deepest object);
 //   max_avatar_penetration_m the same for a sphere of the avatar's radius at the device
@@ -44,6 +77,7 @@
 #include <memory>
 
 #include "server/force/render_session.h"
+#include "server/remote/local_model.h"
 #include "server/scene/scene_builder.h"
 #include "server/sim/scenario.h"
 
@@ -76,9 +110,23 @@ struct SimSummary {
   int64_t ticks_without_input = 0;    // the renderer got no new device state
   int64_t ticks_without_command = 0;  // the device got no new command
   int substeps = 0;                   // integrator substeps per tick (impedance)
+  // remote (see above)
+  uint64_t packets_up = 0;    // messages put on the channel, before loss
+  uint64_t packets_down = 0;
+  double channel_energy_j = 0;
+  double max_drift_m = 0;     // renderer's avatar input behind the newest state (tdpa)
+  uint64_t tdpa_device_activations = 0;
+  uint64_t tdpa_renderer_activations = 0;
+  uint64_t models_taken = 0;       // local_model: models the device switched to
+  uint64_t model_blends = 0;       // switches between models that disagreed near the avatar
+  int64_t ticks_outside_model = 0; // the device's avatar beyond its model's ball
+  double max_model_radius_m = 0;
 };
 
 using TraceSink = std::function<void(const TraceRow&)>;
+
+// The round trip a local model's radius assumes before the first is measured, s.
+inline constexpr double kInitialRoundTripS = 0.2;
 
 class Simulator {
  public:

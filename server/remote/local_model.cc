@@ -1,0 +1,182 @@
+#include "server/remote/local_model.h"
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+#include "server/geometry/sphere_sweep.h"
+#include "server/query/scene_queries.h"
+
+namespace hapticd::remote {
+namespace {
+
+// The part of a mesh within radius of c_B, as a mesh of its own (the whole mesh when
+// every triangle is in it, so that a closed mesh stays a solid); nullopt when the
+// patch would pass kMaxModelTriangles.
+std::optional<scene::MeshSpec> CutMeshPatch(const geometry::MeshBvh& bvh, const Vector3& c_B, double radius,
+                                            std::vector<geometry::PreparedTriangle>& buffer) {
+  const geometry::TriangleMesh& mesh = bvh.mesh();
+  const int n = geometry::GatherMeshTriangles(bvh, geometry::Capsule{c_B, c_B, radius}, buffer);
+  if (n > kMaxModelTriangles) return std::nullopt;
+  scene::MeshSpec patch;
+  patch.pin = scene::Representation::kMesh;
+  if (n == static_cast<int>(mesh.nondegenerate_triangles().size())) {
+    if (mesh.num_triangles() > kMaxModelTriangles) return std::nullopt;
+    patch.vertices = mesh.vertices();
+    patch.triangles.assign(mesh.triangles().begin(), mesh.triangles().end());
+    return patch;
+  }
+  // in the mesh's order, so that the same ball cuts the same patch
+  std::vector<int> kept(n);
+  for (int i = 0; i < n; ++i) kept[i] = buffer[i].index;
+  std::sort(kept.begin(), kept.end());
+  std::unordered_map<int, int> vertex_of;
+  for (int t : kept) {
+    std::array<int, 3> triangle;
+    for (int k = 0; k < 3; ++k) {
+      const int v = mesh.triangles()[t][k];
+      const auto [it, added] = vertex_of.try_emplace(v, static_cast<int>(patch.vertices.size()));
+      if (added) patch.vertices.push_back(mesh.vertices()[v]);
+      triangle[k] = it->second;
+    }
+    patch.triangles.push_back(triangle);
+  }
+  if (patch.triangles.empty()) return std::nullopt;
+  return patch;
+}
+
+}  // namespace
+
+double ModelRadius(double max_velocity, double round_trip_s, double model_interval_s, double avatar_radius) {
+  const double reach = max_velocity * (std::max(round_trip_s, 0.0) + std::max(model_interval_s, 0.0));
+  return std::min(reach + avatar_radius + kModelMarginM, kMaxModelRadiusM);
+}
+
+LocalModel CutLocalModel(const scene::SceneSnapshot& scene, const Vector3& center_W, double radius,
+                         uint64_t version, double t_s) {
+  LocalModel model;
+  model.version = version;
+  model.t_s = t_s;
+  model.center_W = center_W;
+  model.radius = radius;
+  model.settings = scene.settings();
+  model.settings.ray_backend = scene::RayBackend::kNative;
+  std::vector<geometry::PreparedTriangle> buffer(kMaxModelTriangles + 1);
+  const geometry::Aabb ball{center_W - Vector3::Constant(radius), center_W + Vector3::Constant(radius)};
+  for (int i : scene.ObjectsNear(ball)) {
+    const scene::SceneObject& object = scene.object(i);
+    if (static_cast<int>(model.objects.size()) == kMaxModelObjects) {
+      ++model.left_out;
+      continue;
+    }
+    scene::ObjectSpec spec;
+    spec.name = object.name;
+    spec.X_WB = object.X_WB;
+    spec.material = object.material;
+    spec.motion = object.motion;
+    spec.v_WB = object.v_WB;
+    spec.w_WB = object.w_WB;
+    spec.ray_backend = scene::RayBackend::kNative;
+    bool cut = true;
+    std::visit(
+        [&](const auto& shape) {
+          using T = std::decay_t<decltype(shape)>;
+          if constexpr (std::is_same_v<T, scene::ConvexShape>) {
+            spec.shape = scene::ConvexSpec{shape.hull->vertices};
+          } else if constexpr (std::is_same_v<T, scene::MeshShape>) {
+            std::optional<scene::MeshSpec> patch =
+                CutMeshPatch(*shape.bvh, object.X_WB.ToBody(center_W), radius, buffer);
+            if (patch) {
+              spec.shape = std::move(*patch);
+            } else {
+              cut = false;
+            }
+          } else {
+            spec.shape = shape;
+          }
+        },
+        object.shape);
+    if (!cut) {
+      ++model.left_out;
+      continue;
+    }
+    model.objects.push_back(std::move(spec));
+  }
+  return model;
+}
+
+LocalRenderer::LocalRenderer(const force::SessionSettings& settings) : session_(settings) {}
+LocalRenderer::LocalRenderer(LocalRenderer&&) noexcept = default;
+LocalRenderer::~LocalRenderer() = default;
+
+void LocalRenderer::Reset(const Vector3& p_W) {
+  session_.Reset(p_W);
+  last_avatar_W_ = p_W;
+  last_f_W_.setZero();
+  blend_offset_W_.setZero();
+  blend_left_s_ = 0;
+}
+
+bool LocalRenderer::Accept(const LocalModel& model, double now_s) {
+  if (model.version <= version_) return false;
+  scene::SceneBuilder builder(model.settings);
+  for (const scene::ObjectSpec& spec : model.objects) builder.Add(spec);
+  builder.AdvanceKinematic(std::max(now_s - model.t_s, 0.0));
+  previous_ = std::move(scene_);
+  scene_ = builder.Build(model.version);
+  builder_ = std::move(builder);
+  moving_ = builder_.HasMovingObjects();
+  version_ = model.version;
+  center_W_ = model.center_W;
+  radius_ = model.radius;
+  return true;
+}
+
+bool LocalRenderer::Covers(const Vector3& p_W) const {
+  return radius_ >= 0 && (p_W - center_W_).norm() + session_.settings().avatar.radius <= radius_;
+}
+
+namespace {
+
+// Whether two models hold the same surface about the avatar of radius r at p_W: the
+// same deepest contact (depth and normal) within reach.
+bool SameSurfaceNear(const scene::SceneSnapshot& a, const scene::SceneSnapshot& b, const Vector3& p_W, double r) {
+  constexpr double kReach = 0.01;
+  constexpr double kTolerance = 1e-9;
+  const query::SceneContact ca = query::FindDeepestContact(a, p_W, r, kReach);
+  const query::SceneContact cb = query::FindDeepestContact(b, p_W, r, kReach);
+  if ((ca.object < 0) != (cb.object < 0)) return false;
+  if (ca.object < 0) return true;
+  return std::abs(ca.depth - cb.depth) <= kTolerance && (ca.normal_W - cb.normal_W).norm() <= kTolerance;
+}
+
+}  // namespace
+
+force::TickOutput LocalRenderer::Tick(const force::DeviceInput& input, double dt) {
+  static const scene::SceneSnapshot kFreeSpace(std::vector<scene::SceneObject>{}, scene::SceneSettings{}, 0);
+  const scene::SceneSnapshot& scene = scene_ ? *scene_ : kFreeSpace;
+  force::TickOutput output = session_.Tick(scene, input, dt);
+  // admittance: the pose follows the avatar's dynamics, which smooth it already
+  if (previous_ && session_.settings().device.mode == force::DeviceMode::kImpedance) {
+    // the first tick on a new model: blend where it disagrees with the old one
+    if (!SameSurfaceNear(*previous_, scene, last_avatar_W_, session_.settings().avatar.radius)) {
+      blend_offset_W_ = last_f_W_ - output.f_W;
+      blend_left_s_ = kModelBlendS;
+      ++blends_;
+    }
+  }
+  previous_.reset();
+  if (blend_left_s_ > 0) {
+    output.f_W += blend_offset_W_ * (blend_left_s_ / kModelBlendS);
+    blend_left_s_ -= dt;
+  }
+  last_avatar_W_ = output.avatar_W;
+  last_f_W_ = output.f_W;
+  if (moving_ && scene_) {
+    builder_.AdvanceKinematic(dt);
+    scene_ = builder_.Build(version_);
+  }
+  return output;
+}
+
+}  // namespace hapticd::remote
