@@ -107,10 +107,10 @@ TEST(ParseScenario, OverrideErrorsNameThePath) {
   // a path that is not in the scenario is created, then refused unless it is a known field
   EXPECT_EQ(ErrorWith({"device.maxforce=3"}),
             "device.maxforce is not a known field; device has: mode, mass, damping, max_force, "
-            "position_resolution, start, virtual_mass, virtual_damping");
+            "position_resolution, start, virtual_mass, virtual_damping, response_time_s");
   EXPECT_EQ(ErrorWith({"chanel.delay_ms=3"}),
             "chanel is not a known field; the scenario has: rate_hz, duration_s, scene, avatar, device, hand, "
-            "channel, control");
+            "channel, control, remote");
 }
 
 TEST(ParseScenario, WrongTypesAreNamed) {
