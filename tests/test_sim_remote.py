@@ -87,6 +87,25 @@ def test_tdpa_keeps_the_channel_from_generating_energy(tmp_path, mode):
     assert worst > -1  # the runs pressed something
 
 
+@pytest.mark.parametrize("mode", ["direct", "local_model"])
+def test_tdpa_holds_when_a_thin_plate_rises_into_the_hand(tmp_path, mode):
+    # a 1 mm plate rising at 5 mm/s, hit at 0.5 m/s: the surface moves into the avatar
+    # within each tick beyond the avatar's own step, and the device point ends nearer
+    # the plate's far face than the one its proxy touches
+    scenario = copy.deepcopy(PRESS)
+    plate = scenario["scene"]["objects"][0]
+    plate["shape"]["half_extents"] = [0.1, 0.1, 0.0005]
+    plate["position"] = [0, 0, 0]
+    plate["motion"] = {"velocity": [0, 0, 0.005]}
+    scenario["device"]["start"] = [0, 0, 0.0305]
+    scenario["hand"]["path"] = [[0, 0, 0, 0.0305], [0.08, 0, 0, -0.0095]]
+    for delay, loss, stiffness in itertools.product([0, 50], [0, 0.1, 0.2], [300, K]):
+        summary, _ = run_sim(tmp_path, scenario, f"channel.delay_ms={delay}", f"channel.loss={loss}",
+                             f"scene.objects.0.material.stiffness={stiffness}", f"remote.mode={mode}",
+                             "remote.passivity=tdpa")
+        assert summary["channel_energy_j"] <= 0, (delay, loss, stiffness, summary)
+
+
 def test_without_tdpa_the_same_grid_has_an_active_channel(tmp_path):
     summary, _ = run_sim(tmp_path, PRESS, "channel.delay_ms=50", "duration_s=1.0")
     assert summary["channel_energy_j"] > 0.01

@@ -143,6 +143,8 @@ SimSummary Simulator::Run(const TraceSink& trace) {
   Vector3 device_avatar_W = scenario_.device.start_W;  // local_model: the device's proxy, as it last said
   Vector3 rendered_p_W = scenario_.device.start_W;  // the session's last input: behind received_W under tdpa
   Vector3 f_env_W = Vector3::Zero();                // the session's last force
+  int touched = -1;                                 // and the object it touched
+  Vector3 avatar_last_W = scenario_.device.start_W; // and its avatar (proxy)
   Vector3 last_pose_W = scenario_.device.start_W;   // admittance: the last pose commanded
   DeviceCommand sent;                               // the last command sent (deadband)
   bool sent_any = false;
@@ -238,16 +240,26 @@ SimSummary Simulator::Run(const TraceSink& trace) {
     if (remote.tdpa) {
       remote::EnvironmentNear near;
       near.f_W = f_env_W;
-      const double reach = step.norm() + 1e-3;
-      const query::SceneContact contact = query::FindDeepestContact(*snapshot_, rendered_p_W, radius, reach);
-      if (contact.object >= 0) {
+      // touching: the object the avatar touched last tick, moving at the proxy; else the
+      // surface nearest the avatar input, which the step may reach
+      int object = touched;
+      Vector3 at_W = avatar_last_W;
+      if (object < 0 || f_env_W.isZero()) {
+        const double reach = step.norm() + 1e-3;
+        const query::SceneContact contact = query::FindDeepestContact(*snapshot_, rendered_p_W, radius, reach);
+        object = contact.object;
+        at_W = contact.point_W;
         near.normal_W = contact.normal_W;
         near.gap = std::max(-contact.depth, 0.0);
-        near.stiffness = snapshot_->object(contact.object).material.stiffness;
-        near.damping = snapshot_->object(contact.object).material.damping;
+      } else {
+        near.normal_W = f_env_W.normalized();
+      }
+      if (object >= 0) {
+        const scene::SceneObject& surface = snapshot_->object(object);
+        near.stiffness = surface.material.stiffness;
+        near.damping = surface.material.damping;
         // a kinematic surface coming towards the avatar
-        const double towards = snapshot_->object(contact.object).CalcPointVelocity(contact.point_W).dot(contact.normal_W);
-        near.approach = std::max(towards, 0.0) * dt;
+        near.approach = std::max(surface.CalcPointVelocity(at_W).dot(near.normal_W), 0.0) * dt;
       }
       step = renderer_port.LimitStep(step, near, dt);
       summary.tdpa_renderer_activations += renderer_port.active() ? 1 : 0;
@@ -267,6 +279,8 @@ SimSummary Simulator::Run(const TraceSink& trace) {
       renderer_port.Observe(-output.f_W.dot(step));
     }
     f_env_W = output.f_W;
+    touched = output.touched_object;
+    avatar_last_W = output.avatar_W;
 
     // renderer: send down
     DeviceCommand command{output.f_W, output.p_command_W, renderer_port.energy().in, nullptr};
