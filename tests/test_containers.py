@@ -43,12 +43,13 @@ def proxy_report(logs: str) -> dict:
 
 
 def assert_served(report: dict, ticks: int) -> None:
-    """Every tick's packet sent, none lost on the unimpaired path, each answered in time
-    or late; most in time (how many is the machine's load: bench/ measures it), and
-    the press felt."""
-    assert report["packets_sent"] == ticks and report["packets_lost"] == 0
-    assert report["packets_answered"] + report["packets_late"] == ticks
-    assert report["packets_answered"] >= ticks // 2
+    """Every tick run sent its packet (a tick skipped after a stall of the machine is
+    counted), none lost on the unimpaired path, each answered in time or late; most in
+    time (how many is the machine's load: bench/ measures it), and the press felt."""
+    sent = report["packets_sent"]
+    assert sent == report["ticks"] and sent + report["skipped_ticks"] == ticks and sent > ticks // 2
+    assert report["packets_lost"] == 0 and report["packets_answered"] + report["packets_late"] == sent
+    assert report["packets_answered"] >= sent // 2
     assert report["contacts"] > 0 and report["max_force_n"] > 1
 
 
@@ -92,7 +93,8 @@ def test_compose_runs_a_session_through_the_relay(image, secrets):
         podman("network", "rm", f"{project}_lab", check=False)
     # 10 ms each way through the relay's container, between the other two
     assert 20_000 <= report["wire_rtt_p50_us"] <= 30_000
-    assert summary["flows"] == 1 and summary["up"]["in"] == report["packets_sent"] == 2000
+    assert summary["flows"] == 1 and summary["up"]["in"] == report["packets_sent"]
+    assert report["packets_sent"] + report["skipped_ticks"] == 2000
     assert 0 < summary["up"]["lost"] + summary["down"]["lost"] < 120
 
 

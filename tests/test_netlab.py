@@ -78,7 +78,9 @@ def test_a_session_crosses_the_lab_through_the_relay(bin_dir, lab, tmp_path):
     summary = json.loads(relay_out.strip().splitlines()[-1])
     # 20 ms each way plus the floor of two veth hops and the relay's own error
     assert 40_000 <= report["wire_rtt_p50_us"] <= 55_000
-    assert summary["flows"] == 1 and summary["up"]["in"] == report["packets_sent"] == 2000
+    # every tick sent (or skipped after a stall of the machine), every one reached the relay
+    assert summary["flows"] == 1 and summary["up"]["in"] == report["packets_sent"]
+    assert report["packets_sent"] + report["skipped_ticks"] == 2000
     lost = summary["up"]["lost"] + summary["down"]["lost"]
     assert 40 <= lost <= 130  # 2% each way of 2000, within 5 standard deviations
     # what the device missed: lost each way, and the 40 ms in flight when it stopped
