@@ -215,9 +215,16 @@ def test_reordering_and_duplication_have_their_shares(bin_dir, server, device):
     at_once = sum(1 for _, d, _ in got if d < 0.010)
     # a duplicated datagram's two copies share its fate
     assert abs(at_once - 0.3 * len(seqs)) <= binomial_slack(0.3, len(seqs)) + 10
-    # the ones sent at once overtake the ones held back
-    overtaken = sum(1 for a, b in zip(seqs, seqs[1:]) if b < a)
-    assert overtaken > 300
+    # the ones sent at once overtake the ones held back: most arrive before some earlier
+    # datagram that was held (fewer where the sending thread stalled past the delay)
+    held_after = [False] * len(got)
+    lowest_held = float("inf")
+    for i in range(len(got) - 1, -1, -1):
+        held_after[i] = lowest_held < got[i][0]
+        if got[i][1] >= 0.010:
+            lowest_held = min(lowest_held, got[i][0])
+    overtakers = sum(1 for i, (_, d, _) in enumerate(got) if d < 0.010 and held_after[i])
+    assert overtakers >= at_once // 2
     summary = result["summary"]["up"]
     assert summary["duplicated"] == duplicates
     assert summary["out"] == len(seqs)
@@ -277,8 +284,12 @@ def test_garbage_floods_and_strangers_leave_it_relaying_with_its_queues_capped(b
         device.sendto(HEADER.pack(1, time.monotonic_ns()), relay)
         got = receive(server, 0.6)
         assert [seq for seq, _, _ in got] == [1]
+    up = result["summary"]["up"]
+    # what reached the relay (a loaded machine's kernel drops some of the flood first) is
+    # all accounted for, and beyond the queue's 1000 it was dropped, not queued
+    assert up["in"] == up["out"] + up["overflow"] + up["unsent"] + up["held"]
+    assert up["in"] > 1100 and up["overflow"] > 0
     summary = result["summary"]
-    assert summary["up"]["overflow"] >= 5000 - 1000 - 100  # a few may be lost in the kernel
     assert summary["up"]["out"] <= 1000 + 4 + 1
     assert summary["refused"] >= 4
     assert summary["flows"] <= 4
