@@ -11,11 +11,13 @@ namespace hapticd::remote {
 namespace {
 
 // The part of a mesh within radius of c_B, as a mesh of its own (the whole mesh when
-// every triangle is in it, so that a closed mesh stays a solid); nullopt when the
-// patch would pass kMaxModelTriangles.
+// every triangle is in it, so that a closed mesh stays a solid; no triangles when none
+// is there); nullopt when the patch would pass kMaxModelTriangles. buffer is sized on
+// first use.
 std::optional<scene::MeshSpec> CutMeshPatch(const geometry::MeshBvh& bvh, const Vector3& c_B, double radius,
                                             std::vector<geometry::PreparedTriangle>& buffer) {
   const geometry::TriangleMesh& mesh = bvh.mesh();
+  buffer.resize(kMaxModelTriangles + 1);
   const int n = geometry::GatherMeshTriangles(bvh, geometry::Capsule{c_B, c_B, radius}, buffer);
   if (n > kMaxModelTriangles) return std::nullopt;
   scene::MeshSpec patch;
@@ -41,7 +43,6 @@ std::optional<scene::MeshSpec> CutMeshPatch(const geometry::MeshBvh& bvh, const 
     }
     patch.triangles.push_back(triangle);
   }
-  if (patch.triangles.empty()) return std::nullopt;
   return patch;
 }
 
@@ -61,7 +62,7 @@ LocalModel CutLocalModel(const scene::SceneSnapshot& scene, const Vector3& cente
   model.radius = radius;
   model.settings = scene.settings();
   model.settings.ray_backend = scene::RayBackend::kNative;
-  std::vector<geometry::PreparedTriangle> buffer(kMaxModelTriangles + 1);
+  std::vector<geometry::PreparedTriangle> buffer;  // for the meshes' patches
   const geometry::Aabb ball{center_W - Vector3::Constant(radius), center_W + Vector3::Constant(radius)};
   for (int i : scene.ObjectsNear(ball)) {
     const scene::SceneObject& object = scene.object(i);
@@ -77,7 +78,8 @@ LocalModel CutLocalModel(const scene::SceneSnapshot& scene, const Vector3& cente
     spec.v_WB = object.v_WB;
     spec.w_WB = object.w_WB;
     spec.ray_backend = scene::RayBackend::kNative;
-    bool cut = true;
+    bool cut = true;    // false: no room for it
+    bool empty = false; // a mesh with no triangle within the ball: nothing to send
     std::visit(
         [&](const auto& shape) {
           using T = std::decay_t<decltype(shape)>;
@@ -86,10 +88,11 @@ LocalModel CutLocalModel(const scene::SceneSnapshot& scene, const Vector3& cente
           } else if constexpr (std::is_same_v<T, scene::MeshShape>) {
             std::optional<scene::MeshSpec> patch =
                 CutMeshPatch(*shape.bvh, object.X_WB.ToBody(center_W), radius, buffer);
-            if (patch) {
-              spec.shape = std::move(*patch);
-            } else {
+            if (!patch) {
               cut = false;
+            } else {
+              empty = patch->triangles.empty();
+              spec.shape = std::move(*patch);
             }
           } else {
             spec.shape = shape;
@@ -100,7 +103,7 @@ LocalModel CutLocalModel(const scene::SceneSnapshot& scene, const Vector3& cente
       ++model.left_out;
       continue;
     }
-    model.objects.push_back(std::move(spec));
+    if (!empty) model.objects.push_back(std::move(spec));
   }
   return model;
 }

@@ -47,8 +47,7 @@ void SimDevice::Accept(const DeviceCommand& command) {
     f_held_W_ = Vector3::Zero();
     return;
   }
-  const double norm = command.f_W.norm();
-  f_held_W_ = norm > max_force_ ? Vector3(command.f_W * (max_force_ / norm)) : command.f_W;
+  f_held_W_ = Saturate(command.f_W);
 }
 
 void SimDevice::Advance(double t) {

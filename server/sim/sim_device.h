@@ -46,6 +46,11 @@ class SimDevice {
   // Takes a command that has just arrived; a non-finite one is ignored (impedance: the
   // device renders zero instead).
   void Accept(const DeviceCommand& command);
+  // A finite force saturated at device.max_force, as Accept renders it.
+  Vector3 Saturate(const Vector3& f_W) const {
+    const double norm = f_W.norm();
+    return norm > max_force_ ? Vector3(f_W * (max_force_ / norm)) : f_W;
+  }
   // Moves the handle over the tick [t, t + dt) and adds the tick's work to energy_j().
   void Advance(double t);
 

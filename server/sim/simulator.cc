@@ -101,7 +101,6 @@ SimSummary Simulator::Run(const TraceSink& trace) {
   const bool local = remote.mode == RemoteMode::kLocalModel;
   const double weber = remote.deadband;
   const double max_velocity = scenario_.session.device.max_velocity;
-  const double max_force = scenario_.session.device.max_force;
 
   SimDevice device(scenario_);
   Channel<DeviceState> up(scenario_.channel, rate_hz, kUpStream, scenario_.ticks);
@@ -177,10 +176,8 @@ SimSummary Simulator::Run(const TraceSink& trace) {
     if (admittance || !remote.tdpa) return device.Accept(command);
     // the port limits what the device can render: the force saturated first
     DeviceCommand limited = command;
-    const double norm = command.f_W.norm();
-    if (norm > max_force) limited.f_W *= max_force / norm;
     const Vector3 v_mid = state.v_W + 0.5 * (state.v_W - v_last_W);
-    limited.f_W = device_port.LimitForce(limited.f_W, v_mid, dt);
+    limited.f_W = device_port.LimitForce(device.Saturate(command.f_W), v_mid, dt);
     summary.tdpa_device_activations += device_port.active() ? 1 : 0;
     device.Accept(limited);
   };
@@ -342,8 +339,9 @@ SimSummary Simulator::Run(const TraceSink& trace) {
 
   summary.energy_j = device.energy_j();
   summary.final_device_W = device.p_W();
-  summary.observed_energy_j = (local ? local_renderer->session() : session_).observed_energy();
-  summary.counters = (local ? local_renderer->session() : session_).counters();
+  const force::RenderSession& device_session = local ? local_renderer->session() : session_;
+  summary.observed_energy_j = device_session.observed_energy();
+  summary.counters = device_session.counters();
   summary.packets_lost_up = up.lost();
   summary.packets_lost_down = down.lost();
   summary.packets_up = up.sent();
