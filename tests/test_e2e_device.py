@@ -396,10 +396,13 @@ def test_the_demo_strokes_the_default_scene_and_plots(bin_dir, tmp_path):
         "packets_lost",
     ):
         assert key in summary
-    assert summary["packets_sent"] == 2000 and summary["packets_lost"] == 0
+    # lost: a command not back within the demo's 20 ms, which a stalled CI machine can
+    # cause on loopback (CI saw 1 of 2000); every state is answered or lost, few lost
+    sent, lost = summary["packets_sent"], summary["packets_lost"]
+    assert sent == 2000 and summary["packets_received"] + lost == sent and lost <= sent // 100
     # pressing 5 mm into the floor and 2 cm into the box's side: contact, a few newtons
     assert 500 < summary["contacts"] < 2000
     assert 1.0 < summary["max_force_n"] <= 10.0
     assert 0 < summary["rtt_p50_us"] <= summary["rtt_p99_us"] <= summary["rtt_p999_us"]
     assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert latency["samples"] == 500 and latency["packets_lost"] == 0
+    assert latency["samples"] + latency["packets_lost"] == 500 and latency["packets_lost"] <= 5

@@ -21,9 +21,11 @@ from contextlib import contextmanager
 
 import pytest
 
-# what a loaded 2-core machine may add to a release, beyond the delay asked for (the
-# relay's own error is measured in bench/, not asserted here)
+# what a loaded 2-core machine may add to a release, beyond the delay asked for, for
+# all but the worst 1% of datagrams (the relay's own error is measured in bench/, not
+# asserted here); the worst one may meet a stall of this test process itself (CI: 17 ms)
 SLACK_S = 0.015
+STALL_S = 0.100
 HEADER = struct.Struct("!Iq")  # sequence number, send time (ns, CLOCK_MONOTONIC)
 
 
@@ -122,9 +124,9 @@ def test_each_direction_gets_its_own_delay_and_jitter_within_bounds(bin_dir, ser
         sending = send_stream(device, relay, 400, 0.002)
         up = receive(server, 0.3, sending)
         assert sorted(seq for seq, _, _ in up) == list(range(400))
-        delays = [d for _, d, _ in up]
-        assert min(delays) >= 0.010 and max(delays) <= 0.010 + SLACK_S
-        assert 0.010 <= sorted(delays)[200] <= 0.012
+        delays = sorted(d for _, d, _ in up)
+        assert delays[0] >= 0.010 and delays[395] <= 0.010 + SLACK_S and delays[-1] <= 0.010 + STALL_S
+        assert 0.010 <= delays[200] <= 0.012
         # the server answers each to where it came from: the flow's socket
         flow = up[0][2]
         assert all(source == flow for _, _, source in up)
@@ -133,7 +135,7 @@ def test_each_direction_gets_its_own_delay_and_jitter_within_bounds(bin_dir, ser
     assert sorted(seq for seq, _, _ in down) == list(range(400))
     assert all(source == relay for _, _, source in down)
     delays = sorted(d for _, d, _ in down)
-    assert delays[0] >= 0.025 and delays[-1] <= 0.035 + SLACK_S
+    assert delays[0] >= 0.025 and delays[395] <= 0.035 + SLACK_S and delays[-1] <= 0.035 + STALL_S
     mean = sum(delays) / len(delays)
     assert 0.029 <= mean <= 0.032
     summary = result["summary"]
@@ -247,9 +249,14 @@ def test_a_delay_trace_is_replayed(bin_dir, server, device, tmp_path):
     with running_relay(bin_dir, endpoint(server), "--up-delay-trace", str(trace)) as (relay, _):
         sending = send_stream(device, relay, 30, 0.05)
         got = sorted(receive(server, 0.3, sending))
+    assert len(got) == 30
+    late = []
     for seq, delay, _ in got:
         want = (0.005, 0.040, 0.020)[seq % 3]
-        assert want <= delay <= want + SLACK_S, (seq, delay)
+        assert want <= delay <= want + STALL_S, (seq, delay)
+        if delay > want + SLACK_S:
+            late.append((seq, delay))
+    assert len(late) <= 1, late
 
 
 def test_a_rate_cap_spaces_the_datagrams(bin_dir, server, device):
@@ -260,7 +267,7 @@ def test_a_rate_cap_spaces_the_datagrams(bin_dir, server, device):
     assert len(times) == 50
     gaps = sorted(b - a for a, b in zip(times, times[1:]))
     assert 0.0095 <= gaps[len(gaps) // 2] <= 0.0105  # one late wake-up shortens the gap after it
-    assert 0.49 - SLACK_S <= times[-1] - times[0] <= 0.49 + SLACK_S
+    assert 0.49 - SLACK_S <= times[-1] - times[0] <= 0.49 + STALL_S
 
 
 def test_garbage_floods_and_strangers_leave_it_relaying_with_its_queues_capped(bin_dir, server, device):
