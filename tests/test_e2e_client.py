@@ -47,7 +47,8 @@ def test_leaving_a_device_session_closes_its_session_on_the_server(server, clien
     info = client.open_session("impedance", start=ABOVE, session_timeout_s=LONG_TIMEOUT_S)
     with hapticd.DeviceSession(info) as device:
         assert device.exchange(ABOVE, timeout_s=1) is not None
-        assert session_state(client, info.session_id) == "active"
+        # active, or ramping when this machine stalled past the 50 ms watchdog: it has states
+        assert session_state(client, info.session_id) in ("active", "ramping")
     # closed by CloseSession, long before its timeout could have reclaimed it
     with hapticd.connect(server.tcp, timeout_s=10) as other:
         assert wait_until(lambda: closed_on_the_server(other, info.session_id), 5.0)
@@ -66,7 +67,7 @@ def test_leaving_a_client_closes_the_sessions_it_opened_and_no_others(server, cl
         already = owner.open_session("impedance", start=ABOVE, session_timeout_s=LONG_TIMEOUT_S)
         owner.close_session(already.session_id)
         assert session_state(client, waiting.session_id) == "waiting"
-        assert session_state(client, active.session_id) == "active"
+        assert session_state(client, active.session_id) in ("active", "ramping")
     # the device outlived its client: closing it has nothing left to close
     device.close()
     for info in (waiting, active, already):
