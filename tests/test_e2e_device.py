@@ -406,4 +406,4 @@ def test_the_demo_strokes_the_default_scene_and_plots(bin_dir, tmp_path):
     assert 1.0 < summary["max_force_n"] <= 10.0
     assert 0 < summary["rtt_p50_us"] <= summary["rtt_p99_us"] <= summary["rtt_p999_us"]
     assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert latency["samples"] + latency["packets_lost"] == 500 and latency["packets_lost"] <= 5
+    assert latency["samples"] + latency["packets_lost"] == 500 and latency["packets_lost"] <= 500 // 100
