@@ -12,7 +12,13 @@
    largest force, the ticks in contact), against the grid's no-delay run;
 3. impairment, the simulated device: hapticd-sim (deterministic; its channel model) on
    a wall pressed by the scenario format's hand, over the same delays and losses, for
-   penalty and the god-object.
+   penalty and the god-object;
+4. rendering across delay, through the namespace topology: the proxy in dev1 presses the
+   simulated hand into a 5000 N/m box on the server, its datagrams through hapticd-netem
+   in the router, for each remote mode (direct: the device renders the commands' force;
+   local-model: the device renders from the local models of the scene the commands
+   carry) over a grid of delay, jitter and loss: the net energy, the steady force's error
+   against the wall's k * d, how far the avatar went into the box, the models taken.
 
 Percentiles are exact order statistics over every sample the proxy kept (none dropped).
 
@@ -41,6 +47,12 @@ QUANTILES = ("p50", "p99", "p999", "max")
 DELAYS_MS = (0, 1, 5, 20, 50, 100)
 LOSSES = (0.0, 0.05, 0.2)
 JITTERED = ((5, 2), (20, 5))  # (delay, jitter) ms, no loss
+# part 4: (one-way delay ms, jitter ms, loss) each way, and the box pressed
+REMOTE_CELLS = ((0, 0, 0.0), (5, 1, 0.0), (20, 5, 0.05), (50, 5, 0.1), (50, 20, 0.1), (100, 10, 0.1), (250, 20, 0.2))
+REMOTE_MODES = ("direct", "local-model")
+BOX_STIFFNESS = 5000.0
+BOX_TOP = 0.1
+PRESS_PATH = "0,0,0,0.12;1,0,0,0.09;4,0,0,0.09"  # 2 cm above the top to 1 cm into it, held
 
 
 def wire(report: dict) -> dict[str, float]:
@@ -194,6 +206,54 @@ def sim_grid(bin_dir: pathlib.Path, log) -> list[dict]:
     return rows
 
 
+def remote_grid(bin_dir: pathlib.Path, seconds: float, log) -> list[dict]:
+    rows = []
+    with tempfile.TemporaryDirectory() as scratch:
+        secrets = pathlib.Path(scratch) / "secrets"
+        make_secrets(secrets, "10.77.0.2")
+        scene = pathlib.Path(scratch) / "box.json"
+        scene.write_text(json.dumps({"scene": {"objects": [{
+            "name": "box", "shape": {"type": "box", "half_extents": [0.05, 0.05, 0.05]},
+            "position": [0, 0, BOX_TOP / 2], "material": {"stiffness": BOX_STIFFNESS}}]}}))
+        scene.chmod(0o644)
+        name = f"r{os.getpid() % 100000}"
+        subprocess.run(["bash", str(NETLAB), "up", name], check=True, capture_output=True, timeout=60)
+        exec_in = lambda where, *command: ["bash", str(NETLAB), "exec", name, where, "--", *command]  # noqa: E731
+        try:
+            server = Process(exec_in("server", str(bin_dir / "hapticd"), "--host", "10.77.0.2", "--scene", str(scene),
+                                     "--tls-cert", f"{secrets}/cert.pem", "--tls-key", f"{secrets}/key.pem",
+                                     "--access-token-file", f"{secrets}/token", "--log-level", "warning"))
+            try:
+                for delay, jitter, loss in REMOTE_CELLS:
+                    for mode in REMOTE_MODES:
+                        relay = Process(exec_in("router", str(bin_dir / "hapticd-netem"), "--listen", "10.77.1.1:9000",
+                                                "--forward", "10.77.0.2:7461", "--delay-ms", str(delay),
+                                                "--jitter-ms", str(jitter), "--loss", str(loss), "--seed", "1"))
+                        try:
+                            report = run_json(exec_in(
+                                "dev1", str(bin_dir / "hapticd-proxy"), "--server", "10.77.0.2:7460", "--tls-ca",
+                                f"{secrets}/cert.pem", "--access-token-file", f"{secrets}/token", "--udp-via",
+                                "10.77.1.1:9000", "--seconds", str(seconds), "--path", PRESS_PATH, "--remote-mode",
+                                mode))
+                        finally:
+                            summary = json.loads(relay.stop().strip().splitlines()[-1])
+                        depth = BOX_TOP - report["final_position_m"][2]
+                        wall = BOX_STIFFNESS * depth
+                        rows.append({"mode": mode, "delay_ms": delay, "jitter_ms": jitter, "loss": loss, **wire(report),
+                                     "lost": report["packets_lost"], "energy_j": report["energy_j"],
+                                     "depth_mm": 1000 * depth,
+                                     "force_error": (report["final_force_n"][2] - wall) / wall if depth > 0 else None,
+                                     "avatar_in_mm": max(0.0, 1000 * (BOX_TOP - report["lowest_avatar_z_m"])),
+                                     "max_force_n": report["max_force_n"], "models": report["models_adopted"],
+                                     "fragments": report["model_fragments"]})
+                        log({"part": "remote grid", **rows[-1], "proxy": report, "relay": summary})
+            finally:
+                server.stop()
+        finally:
+            subprocess.run(["bash", str(NETLAB), "down", name], capture_output=True, timeout=60)
+    return rows
+
+
 def chart(layer_rows, udp_rows, sim_rows, path: pathlib.Path) -> None:
     import matplotlib
 
@@ -243,6 +303,7 @@ def main() -> None:
     parser.add_argument("--blocks", type=int, default=3)
     parser.add_argument("--block-seconds", type=float, default=3)
     parser.add_argument("--grid-seconds", type=float, default=3)
+    parser.add_argument("--press-seconds", type=float, default=4)
     args = parser.parse_args()
     raw = (args.out_dir / "raw" / "container_latency.jsonl").open("w")
     log = lambda record: print(json.dumps(record), file=raw, flush=True)  # noqa: E731
@@ -250,6 +311,7 @@ def main() -> None:
     layer_rows = layers(args.bin_dir, args.blocks, args.block_seconds, log)
     udp_rows = udp_grid(args.bin_dir, args.grid_seconds, log)
     sim_rows = sim_grid(args.bin_dir, log)
+    remote_rows = remote_grid(args.bin_dir, args.press_seconds, log)
 
     with (args.out_dir / "container_latency.csv").open("w", newline="") as out:
         writer = csv.writer(out)
@@ -264,6 +326,10 @@ def main() -> None:
         for r in sim_rows:
             writer.writerow(["sim grid", r["method"], r["delay_ms"], 0, r["loss"], "", "", "", "", "", "",
                              r["energy_j"], r["penetration_mm"], r["max_force_n"], r["contact_ticks"]])
+        for r in remote_rows:
+            writer.writerow(["remote grid", r["mode"], r["delay_ms"], r["jitter_ms"], r["loss"],
+                             *[r[q] for q in QUANTILES], r["lost"], r["energy_j"], r["avatar_in_mm"],
+                             r["max_force_n"], ""])
     chart(layer_rows, udp_rows, sim_rows, args.out_dir / "container_latency.png")
 
     md = []
@@ -293,8 +359,9 @@ def main() -> None:
     md.append(f"The proxy's simulated hand strokes the default scene ({args.grid_seconds:g} s: press 5 mm into the "
               "floor, slide into the box, lift) through hapticd-netem on loopback. *energy*: the net work the "
               "rendered force did on the handle (positive: the loop generated energy); *below floor*: how deep the "
-              "handle went under z = 0; *late*: commands that came after their tick's 500 µs budget (the proxy does "
-              "not render them: it holds the last command in time, then its watchdog ramps the force to zero).\n")
+              "handle went under z = 0; *late*: commands that came after their tick's 500 µs budget (the proxy "
+              "renders the newest command that came, late or not; its watchdog holds it 50 ms, then ramps the "
+              "force to zero).\n")
     md.append("| delay ms (each way) | jitter ms | loss | rtt p50 µs | rtt p99 µs | rtt max µs | late | lost | energy J | "
               "below floor mm | max force N | contacts | watchdog trips |")
     md.append("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
@@ -311,6 +378,23 @@ def main() -> None:
     for r in sim_rows:
         md.append(f"| {r['method']} | {r['delay_ms']} | {r['loss']:.0%} | {r['energy_j']:+.4f} | "
                   f"{r['penetration_mm']:.2f} | {r['max_force_n']:.2f} | {r['contact_ticks']} |")
+    md.append("\n## Rendering across delay, through the namespace topology: direct against the local model\n")
+    md.append(f"hapticd-proxy in dev1 presses the simulated hand into a {BOX_STIFFNESS:g} N/m box on the server "
+              f"({args.press_seconds:g} s: from 2 cm above its top to 1 cm into it over 1 s, then held), its datagrams "
+              "through hapticd-netem in the router (the delay, jitter and loss each way; TLS control channel). "
+              "*direct*: the device renders each command's force as it comes; *local-model*: the device renders "
+              "the box itself from the local models the commands carry. *energy*: the net work the rendered force "
+              "did on the handle (positive: active); *force error*: the last force against the wall's k·d at the "
+              "handle's last depth (steady when small); *avatar in*: how far the avatar (proxy) went into the "
+              "box.\n")
+    md.append("| mode | delay ms | jitter ms | loss | rtt p50 µs | lost | energy J | depth mm | force error | "
+              "avatar in mm | max force N | models |")
+    md.append("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for r in remote_rows:
+        error = "n/a" if r["force_error"] is None else f"{r['force_error']:+.2%}"
+        md.append(f"| {r['mode']} | {r['delay_ms']} | {r['jitter_ms']} | {r['loss']:.0%} | {r['p50']:.0f} | "
+                  f"{r['lost']} | {r['energy_j']:+.4f} | {r['depth_mm']:.3f} | {error} | {r['avatar_in_mm']:.3f} | "
+                  f"{r['max_force_n']:.2f} | {r['models']} |")
     print("\n".join(md))
 
 

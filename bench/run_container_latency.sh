@@ -3,10 +3,11 @@
 # against hapticd beside a plain UDP echo over loopback, veth between namespaces and
 # between two podman containers; then today's rendering under a grid of injected delay,
 # jitter and loss, on the real UDP path (hapticd-netem) and in the simulator
-# (bench/container_latency.py). Writes bench/results/container_latency.{md,csv,png} and
-# the runs in bench/results/raw/container_latency.jsonl. About 3 minutes after the build
+# (bench/container_latency.py), and the local model against direct rendering through the
+# namespace topology. Writes bench/results/container_latency.{md,csv,png} and
+# the runs in bench/results/raw/container_latency.jsonl. About 5 minutes after the build
 # and the image (deploy/containers.sh).
-#   bench/run_container_latency.sh [--blocks 3] [--block-seconds 3] [--grid-seconds 3]
+#   bench/run_container_latency.sh [--blocks 3] [--block-seconds 3] [--grid-seconds 3] [--press-seconds 4]
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"

@@ -347,5 +347,5 @@ def test_a_device_session_through_the_relay_has_the_delay_asked_for(bin_dir):
     answered = report["packets_answered"] + report["packets_late"]
     assert answered <= summary["down"]["out"] <= answered + 45
     assert abs(summary["up"]["lost"] + summary["down"]["lost"] - 0.04 * 2000) <= binomial_slack(0.04, 2000) + 25
-    # today a command 40 ms old is too late to render (issue 14 renders across the delay)
+    # a command 40 ms old comes after its tick's wait: late (the proxy renders the newest one)
     assert report["packets_late"] > 0.9 * answered

@@ -20,10 +20,13 @@
 #include <asio/ip/udp.hpp>
 
 #include "clients/cpp/control_client.h"
+#include "clients/cpp/local_model_device.h"
 #include "clients/cpp/proxy_loop.h"
 #include "clients/cpp/proxy_options.h"
 #include "clients/cpp/sim_device_driver.h"
 #include "clients/cpp/tick_schedule.h"
+#include "hapticd/v1/hapticd.pb.h"
+#include "server/net/proto_convert.h"
 
 namespace {
 
@@ -106,6 +109,10 @@ double ProcessCpuSeconds() {
   return seconds(usage.ru_utime) + seconds(usage.ru_stime);
 }
 
+// A number as JSON: null when not finite.
+std::string OrNull(double value) { return std::isfinite(value) ? fmt::format("{:.7f}", value) : std::string("null"); }
+std::string JsonVector(const Vector3& v) { return fmt::format("[{}, {}, {}]", OrNull(v.x()), OrNull(v.y()), OrNull(v.z())); }
+
 void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const ProxyReport& r) {
   fmt::print(
       "{{\"target\": \"{}\", \"peer\": \"{}\", \"sessions\": {}, \"threads\": {}, \"rate_hz\": {}, \"seconds\": {}, "
@@ -118,7 +125,10 @@ void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const 
       "\"send_lateness_max_us\": {:.1f}, "
       "\"skipped_ticks\": {}, \"packets_sent\": {}, \"packets_answered\": {}, \"packets_late\": {}, "
       "\"packets_lost\": {}, \"stale\": {}, \"bad\": {}, \"send_errors\": {}, \"max_force_n\": {:.4f}, "
-      "\"energy_j\": {:.6f}, \"lowest_z_m\": {}, \"contacts\": {}, \"watchdog_trips\": {}, \"session_ended\": \"{}\", \"cpu_s\": {:.3f}}}\n",
+      "\"energy_j\": {:.6f}, \"lowest_z_m\": {}, \"lowest_avatar_z_m\": {}, \"final_force_n\": {}, "
+      "\"final_position_m\": {}, \"remote_mode\": \"{}\", \"models_adopted\": {}, \"model_version\": {}, "
+      "\"model_fragments\": {}, \"models_completed\": {}, \"models_rejected\": {}, \"model_blends\": {}, "
+      "\"contacts\": {}, \"watchdog_trips\": {}, \"session_ended\": \"{}\", \"cpu_s\": {:.3f}}}\n",
       fmt::format("{}:{}", options.target.host, options.target.port), options.echo ? "echo" : "hapticd",
       options.sessions, options.threads, options.rate_hz, options.seconds, priority, r.ticks, Us(r.rtt.p50), Us(r.rtt.p90), Us(r.rtt.p99),
       Us(r.rtt.p999), Us(r.rtt.max), Us(r.wire_rtt.p50), Us(r.wire_rtt.p99), Us(r.wire_rtt.p999),
@@ -126,7 +136,9 @@ void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const 
       r.overruns, r.late_states, Us(r.send_lateness.p50), Us(r.send_lateness.p99), Us(r.send_lateness.max),
       r.skipped_ticks, r.packets.sent, r.packets.answered, r.packets.late, r.packets.lost(),
       r.packets.stale, r.packets.bad, r.packets.send_errors, r.max_force_n, r.energy_j,
-      std::isfinite(r.lowest_z_m) ? fmt::format("{:.6f}", r.lowest_z_m) : std::string("null"), r.contacts, r.watchdog_trips,
+      OrNull(r.lowest_z_m), OrNull(r.lowest_avatar_z_m), JsonVector(r.final_f_W), JsonVector(r.final_p_W),
+      options.local_model ? "local-model" : "direct", r.models.adopted, r.models.version, r.models.fragments,
+      r.models.completed, r.models.rejected, r.models.blends, r.contacts, r.watchdog_trips,
       r.session_ended, cpu_s);
   std::fflush(stdout);
 }
@@ -149,6 +161,7 @@ int Run(const ProxyOptions& options) {
   // the devices, and a session and link for each
   std::vector<std::unique_ptr<DeviceDriver>> drivers;
   std::vector<std::unique_ptr<RealtimeLink>> links;
+  std::vector<std::unique_ptr<LocalModelDevice>> locals;  // local-model sessions' (else null)
   std::unique_ptr<ControlClient> client;
   std::vector<uint32_t> session_ids;
   if (options.echo) {
@@ -164,8 +177,19 @@ int Run(const ProxyOptions& options) {
     client->Hello("hapticd-proxy", ReadAccessToken(options.access_token_file));
     for (int i = 0; i < options.sessions; ++i) {
       drivers.push_back(MakeDriver(options));
-      const SessionTicket ticket = client->OpenSession(MakeOpenSession(drivers.back()->caps()));
+      hapticd::v1::OpenSession open = MakeOpenSession(drivers.back()->caps());
+      if (options.local_model) open.set_remote_mode(hapticd::v1::REMOTE_MODE_LOCAL_MODEL);
+      const SessionTicket ticket = client->OpenSession(open);
       session_ids.push_back(ticket.session_id);
+      if (options.local_model) {
+        // the device renders with the settings the server read from the same request
+        Vector3 start_W;
+        double timeout_s = 0;
+        const hapticd::force::SessionSettings settings = hapticd::net::ReadSessionRequest(open, start_W, timeout_s);
+        locals.push_back(std::make_unique<LocalModelDevice>(settings, start_W, MonotonicNowNs()));
+      } else {
+        locals.push_back(nullptr);
+      }
       const asio::ip::udp::endpoint udp = options.udp_via.host.empty() ? ticket.udp_endpoint : ResolveUdp(options.udp_via);
       links.push_back(std::make_unique<RealtimeLink>(ticket.session_id, ticket.key, udp));
     }
@@ -180,7 +204,8 @@ int Run(const ProxyOptions& options) {
   loop_options.ramp_s = options.ramp_ms / 1000;
   // the sessions dealt out to the loops in turn
   std::vector<std::vector<ProxyChannel>> shares(options.threads);
-  for (std::size_t i = 0; i < drivers.size(); ++i) shares[i % shares.size()].push_back({drivers[i].get(), links[i].get()});
+  for (std::size_t i = 0; i < drivers.size(); ++i) shares[i % shares.size()].push_back(
+      {drivers[i].get(), links[i].get(), i < locals.size() ? locals[i].get() : nullptr});
   std::vector<std::unique_ptr<ProxyLoop>> loops;
   std::vector<ProxyLoop*> loop_pointers;
   for (std::vector<ProxyChannel>& share : shares) {

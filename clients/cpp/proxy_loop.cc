@@ -55,6 +55,9 @@ ProxyLoop::ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> 
       send_lateness_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()) {
   // every command's wire round trip, late ones included, goes to one buffer
   for (RealtimeLink* link : links_) link->set_wire_rtt_sink(&wire_rtt_);
+  for (const ProxyChannel& channel : channels_) {
+    if (channel.local != nullptr) channel.link->set_fragment_sink(channel.local);
+  }
   // before any command: no force, and an admittance handle stays where it starts
   for (const ProxyChannel& channel : channels_) {
     const DeviceCaps caps = channel.driver->caps();
@@ -84,6 +87,10 @@ void ProxyLoop::SendStates(double t, int64_t deadline_ns, ProxyReport& report) {
     state.f_sensed_W = reading.f_sensed_W;
     // impedance: what the device rendered since its previous state
     if (kinds_[i] == DeviceKind::kImpedance) state.f_held_W = held_W_[i];
+    if (const LocalModelDevice* local = channels_[i].local) {
+      state.model_version = local->model_version();
+      state.avatar_W = local->avatar_W();
+    }
     const int64_t rtt_us = links_[i]->rtt_ns() / 1000;
     state.rtt_us = static_cast<uint32_t>(std::clamp<int64_t>(rtt_us, 0, std::numeric_limits<uint32_t>::max()));
     if (!links_[i]->Send(state)) continue;
@@ -94,23 +101,41 @@ void ProxyLoop::SendStates(double t, int64_t deadline_ns, ProxyReport& report) {
   }
 }
 
-void ProxyLoop::ApplyCommands(double t, ProxyReport& report) {
+void ProxyLoop::ApplyCommands(double t, double dt, ProxyReport& report) {
   for (std::size_t i = 0; i < channels_.size(); ++i) {
     RealtimeLink& link = *links_[i];
-    // a command in time goes to the watchdog; without one, stop waiting for it
+    // the last state's answer in time is measured; without one, stop waiting for it
     if (link.answered()) {
-      watchdogs_[i].Accept(OutputOf(link.command()), t);
       rtt_.Record(link.rtt_ns());
-      report.contacts += link.command().contact ? 1 : 0;
+      report.contacts += link.command().contact && channels_[i].local == nullptr ? 1 : 0;
     } else {
       link.Expire();
     }
-    const DeviceOutput output = watchdogs_[i].Output(t);
+    // the newest command goes to the watchdog, in time or late: across a delay longer
+    // than a tick, every command is late
+    if (link.fresh()) {
+      watchdogs_[i].Accept(OutputOf(link.newest()), t);
+      link.ClearFresh();
+    }
+    DeviceOutput output = watchdogs_[i].Output(t);
+    Vector3 avatar_W = link.newest().avatar_W;
+    if (LocalModelDevice* local = channels_[i].local) {
+      const force::TickOutput rendered = local->Tick(readings_[i], held_W_[i], dt);
+      output.f_W = rendered.f_W;
+      output.tau_W.setZero();
+      avatar_W = rendered.avatar_W;
+      report.contacts += rendered.contact ? 1 : 0;
+    }
     channels_[i].driver->Apply(output);
     held_W_[i] = output.f_W;
+    if (link.newest().sequence != 0 || channels_[i].local != nullptr) {
+      report.lowest_avatar_z_m = std::min(report.lowest_avatar_z_m, avatar_W.z());
+    }
     const double force = kinds_[i] == DeviceKind::kImpedance ? output.f_W.norm() : readings_[i].f_sensed_W.norm();
     report.max_force_n = std::max(report.max_force_n, force);
   }
+  report.final_f_W = held_W_.front();
+  report.final_p_W = readings_.front().p_W;
 }
 
 uint32_t ProxyLoop::EndedFlags() const {
@@ -135,7 +160,7 @@ ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
     // send, wait out the budget from the wake (never past the next deadline), apply
     SendStates(t, deadline_ns, report);
     link_set_.AwaitAll(std::min(woke_ns + options_.budget_ns, schedule.DeadlineOf(tick + 1)));
-    ApplyCommands(t, report);
+    ApplyCommands(t, 1.0 / options_.rate_hz, report);
 
     // judge the tick, then move on (skipping ahead after a stall)
     const int64_t finished_ns = MonotonicNowNs();
@@ -160,6 +185,7 @@ ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
     links_[i]->Drain();
     report.packets += links_[i]->counters();
     report.watchdog_trips += watchdogs_[i].trips();
+    if (channels_[i].local != nullptr) report.models += channels_[i].local->counters();
   }
   report.rtt = rtt_.Summarize();
   report.wire_rtt = wire_rtt_.Summarize();
@@ -199,8 +225,10 @@ ProxyReport RunLoops(std::span<ProxyLoop* const> loops, int priority, const std:
   for (std::thread& thread : threads) thread.join();
   if (realtime != nullptr) *realtime = std::all_of(granted.begin(), granted.end(), [](uint8_t g) { return g != 0; });
 
-  // counts add up; percentiles come from all the samples
+  // counts add up; percentiles come from all the samples; the first device is the first loop's
   ProxyReport merged;
+  merged.final_f_W = reports.front().final_f_W;
+  merged.final_p_W = reports.front().final_p_W;
   for (const ProxyReport& r : reports) {
     merged.ticks += r.ticks;
     merged.skipped_ticks += r.skipped_ticks;
@@ -212,6 +240,8 @@ ProxyReport RunLoops(std::span<ProxyLoop* const> loops, int priority, const std:
     merged.max_force_n = std::max(merged.max_force_n, r.max_force_n);
     merged.energy_j += r.energy_j;
     merged.lowest_z_m = std::min(merged.lowest_z_m, r.lowest_z_m);
+    merged.lowest_avatar_z_m = std::min(merged.lowest_avatar_z_m, r.lowest_avatar_z_m);
+    merged.models += r.models;
     merged.watchdog_trips += r.watchdog_trips;
     merged.dropped_samples += r.dropped_samples;
     if (merged.session_ended.empty()) merged.session_ended = r.session_ended;

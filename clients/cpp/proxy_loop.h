@@ -10,9 +10,12 @@
 //                    later than the threshold after the deadline is the proxy's own
 //                    miss (a late state), whatever the server does
 //   wait for the commands until woke + budget, at most the next deadline (LinkSet)
-//   for each device: a command that came -> the watchdog takes it; none -> the link
-//                    gives up on it (a later one counts as late); Apply the watchdog's
-//                    output (the command, or the held / ramping last one)
+//   for each device: the last state's command not come -> the link gives up on it (a
+//                    later one counts as late); the newest command that came since the
+//                    previous tick, in time or late, goes to the watchdog; Apply the
+//                    watchdog's output (that command, or the held / ramping last one).
+//                    A local-model device renders its own force instead
+//                    (local_model_device.h) and sends its model version and proxy up
 //   finished: a miss if the tick woke later than the threshold or ran past the next
 //             deadline
 //
@@ -32,6 +35,7 @@
 #include "clients/cpp/command_watchdog.h"
 #include "clients/cpp/device_driver.h"
 #include "clients/cpp/latency_stats.h"
+#include "clients/cpp/local_model_device.h"
 #include "clients/cpp/realtime_link.h"
 
 namespace hapticd::proxy {
@@ -47,10 +51,12 @@ struct ProxyLoopOptions {
   int max_backlog_ticks = 10;          // behind by more: skip to the present
 };
 
-// One device and the link of its session; both owned by the caller.
+// One device and the link of its session, and for a local-model session the device's
+// own renderer (null: the commands' force is rendered); all owned by the caller.
 struct ProxyChannel {
   DeviceDriver* driver = nullptr;
   RealtimeLink* link = nullptr;
+  LocalModelDevice* local = nullptr;
 };
 
 // A run's outcome. Percentiles in ns.
@@ -65,14 +71,20 @@ struct ProxyReport {
   Percentiles lateness;        // woke - deadline, per tick
   Percentiles send_lateness;   // send - deadline, per state sent
   LinkCounters packets;        // every link's, summed
-  int64_t contacts = 0;        // answered commands that report contact
+  int64_t contacts = 0;        // answered commands that report contact (local model: ticks in contact)
   double max_force_n = 0;      // impedance: largest rendered force; admittance: sensed
   // impedance: the net work the rendered force did on the handles, sum of each tick's
   // held force times the handle's displacement over that tick (the scenario format's
   // energy_j; positive: the rendering generated energy)
   double energy_j = 0;
-  // the lowest the handles went (m, world z; the default scene's floor is z = 0)
+  // the lowest the handles went (m, world z; the default scene's floor is z = 0), and
+  // the lowest their avatars (proxies) went: the commands', a local model's own
   double lowest_z_m = std::numeric_limits<double>::infinity();
+  double lowest_avatar_z_m = std::numeric_limits<double>::infinity();
+  // the first device's at the end of the run: the force rendered and where its handle was
+  Vector3 final_f_W = Vector3::Zero();
+  Vector3 final_p_W = Vector3::Zero();
+  LocalModelCounters models;  // every local-model device's, summed
   uint64_t watchdog_trips = 0;  // device watchdog: holds that ran out
   std::size_t dropped_samples = 0;  // samples beyond the buffers (none when sized right)
   // The server said a session ended (closed or timed out): the run stops at once.
@@ -102,8 +114,9 @@ class ProxyLoop {
   // The tick's states: read every device and send; counts the states sent later than
   // the threshold after deadline_ns.
   void SendStates(double t, int64_t deadline_ns, ProxyReport& report);
-  // The tick's outputs: take the commands that came, apply what the watchdogs say.
-  void ApplyCommands(double t, ProxyReport& report);
+  // The tick's outputs (dt: its length): take the commands that came, apply what the
+  // watchdogs (or the local models) say.
+  void ApplyCommands(double t, double dt, ProxyReport& report);
 
   ProxyLoopOptions options_;
   std::vector<ProxyChannel> channels_;

@@ -29,6 +29,9 @@ than the miss threshold after their tick's deadline).
                        in free space), press (held 2 mm into the floor), or
                        "t,x,y,z;t,x,y,z;..." (a path of its own, s and m)
   --max-force N        the device's force limit, N (default 10)
+  --remote-mode M      direct (default: the device renders each command's force) or
+                       local-model (the device renders its force itself, from the local
+                       models of the scene the commands carry; impedance only)
   --budget-us U        how long a tick waits for its commands (default 500)
   --miss-threshold-us U  a tick waking later than this counts as a deadline miss, a
                        state sent later than this after its deadline as a late state
@@ -172,6 +175,14 @@ ProxyOptions ParseProxyOptions(std::span<const std::string_view> args) {
         options.path = PathKind::kCustom;
         options.custom_path = ParsePath(value);
       }
+    } else if (name == "--remote-mode") {
+      if (value == "direct") {
+        options.local_model = false;
+      } else if (value == "local-model") {
+        options.local_model = true;
+      } else {
+        throw OptionsError(fmt::format("--remote-mode is \"{}\"; it must be direct or local-model", value));
+      }
     } else if (name == "--max-force") {
       options.max_force = ParseInRange(name, value, 1e-3, 1e4);
     } else if (name == "--budget-us") {
@@ -204,6 +215,9 @@ ProxyOptions ParseProxyOptions(std::span<const std::string_view> args) {
   if (!have_target) throw OptionsError("give --server HOST:PORT or --echo HOST:PORT (see --help)");
   if (options.echo && !options.udp_via.host.empty()) {
     throw OptionsError("--udp-via goes with --server (with --echo, name the relay as the echo)");
+  }
+  if (options.local_model && (options.echo || options.mode != DeviceKind::kImpedance)) {
+    throw OptionsError("--remote-mode local-model is for an impedance device served by hapticd (--server)");
   }
   if (options.threads > options.sessions) {
     throw OptionsError(fmt::format("--threads is {}; it must be at most --sessions ({}): a loop serves one "

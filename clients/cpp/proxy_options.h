@@ -38,6 +38,7 @@ struct ProxyOptions {
   PathKind path = PathKind::kStroke;
   std::vector<sim::PathPoint> custom_path;  // kCustom only
   double max_force = 10;          // N
+  bool local_model = false;       // --remote-mode local-model
   double budget_us = 500;         // a tick's wait for its commands
   double miss_threshold_us = 100;  // a tick waking later than this is a miss
   double hold_ms = 50;            // device watchdog

@@ -145,6 +145,8 @@ void RealtimeLink::Accept(std::span<const uint8_t> datagram, bool truncated, int
   }
   // an authentic word that the session ended: the device must stop rendering it
   ended_flags_ |= incoming_.flags & (v1::COMMAND_FLAGS_SESSION_CLOSED | v1::COMMAND_FLAGS_SESSION_TIMED_OUT);
+  if (fragment_sink_ != nullptr && incoming_.model.count != 0) fragment_sink_->Offer(incoming_.model);
+  incoming_.model = {};  // its bytes are the receive buffer's, gone with the next datagram
   const uint64_t sequence = incoming_.sequence;
   // an answer to a state never sent
   if (sequence > last_sequence_) {
@@ -159,6 +161,10 @@ void RealtimeLink::Accept(std::span<const uint8_t> datagram, bool truncated, int
     return;
   }
   replied_[slot] = true;
+  if (sequence > newest_.sequence) {
+    newest_ = incoming_;
+    fresh_ = true;
+  }
   if (wire_rtt_sink_ != nullptr && arrival_real_ns != 0) wire_rtt_sink_->Record(arrival_real_ns - send_real_ns_[slot]);
   // the last state's answer within its wait is the one the loop renders
   if (sequence == last_sequence_ && wait_ == Wait::kWaiting) {

@@ -17,6 +17,11 @@
 // ends: the wire's share, without the loop's wake-up; late commands too, into the sink
 // set by set_wire_rtt_sink). Everything is preallocated: Send and Drain allocate nothing.
 //
+// Besides the last state's answer, the link keeps the newest command that came (answered
+// or late): across a delay longer than a tick every command is late, and the device
+// renders the newest it has. A local-model session's model fragments go to a sink from
+// every authentic command of the session, stale ones too (the fragments are the same).
+//
 // Echo mode (the benchmark's baseline) sends the same states to a plain UDP echo: the
 // answer is the state itself, checked the same way and read back as a command with no
 // force.
@@ -50,6 +55,14 @@ struct LinkCounters {
   LinkCounters& operator+=(const LinkCounters& other);
   // States whose command never came: sent - answered - late.
   uint64_t lost() const { return sent - answered - late; }
+};
+
+// Takes the model fragments of a local-model session's commands (on the loop's thread,
+// inside Drain; the fragment's bytes are valid only during the call).
+class FragmentSink {
+ public:
+  virtual ~FragmentSink() = default;
+  virtual void Offer(const net::ModelFragmentView& fragment) = 0;
 };
 
 class RealtimeLink {
@@ -100,6 +113,14 @@ class RealtimeLink {
 
   // Where every command's wire round trip (answered or late) is recorded; null: nowhere.
   void set_wire_rtt_sink(LatencyStats* sink) { wire_rtt_sink_ = sink; }
+  // Where model fragments go; null: nowhere.
+  void set_fragment_sink(FragmentSink* sink) { fragment_sink_ = sink; }
+
+  // The newest command that has come, answered or late (its model fragment cleared),
+  // and whether one came since the last ClearFresh.
+  const net::DeviceCommandSample& newest() const { return newest_; }
+  bool fresh() const { return fresh_; }
+  void ClearFresh() { fresh_ = false; }
 
  private:
   enum class Wait { kNone, kWaiting, kAnswered, kExpired };
@@ -123,6 +144,9 @@ class RealtimeLink {
   std::array<int64_t, kWindow> send_real_ns_{};
   std::array<bool, kWindow> replied_{};
   LatencyStats* wire_rtt_sink_ = nullptr;
+  FragmentSink* fragment_sink_ = nullptr;
+  net::DeviceCommandSample newest_;
+  bool fresh_ = false;
   net::DeviceCommandSample command_;  // the answer, once answered()
   net::DeviceCommandSample incoming_;  // the datagram being checked
   net::DeviceStateSample echoed_;      // echo mode: the state read back

@@ -11,6 +11,7 @@
 #include "server/net/control_server.h"
 #include "server/net/control_service.h"
 #include "server/net/log.h"
+#include "server/net/model_feed.h"
 #include "server/net/realtime_channel.h"
 
 namespace hapticd::app {
@@ -52,8 +53,10 @@ struct Server::Impl {
                  sessions, publisher),
         service(std::move(initial), publisher, sessions, realtime.counters(), MakeServiceOptions(options)),
         control(context, service, MakeControlOptions(options)),
+        models(sessions, publisher),
         housekeeping(context),
         kinematics(context),
+        model_timer(context),
         signals(context, SIGINT, SIGTERM) {}
 
   net::ServiceOptions MakeServiceOptions(const ServerOptions& options) {
@@ -109,6 +112,16 @@ struct Server::Impl {
     });
   }
 
+  // The local models (net/model_feed.h): a pass every 2 ms while a local-model session
+  // lives, every 20 ms otherwise (how soon a new one gets its first model at the latest).
+  void FeedModels() {
+    model_timer.expires_after(models.Pass(net::MonotonicNowNs()) ? 2ms : 20ms);
+    model_timer.async_wait([this](std::error_code error) {
+      if (error || stopping) return;
+      FeedModels();
+    });
+  }
+
   // Every 50 ms: hand back finished sessions' slots; every 5 s: report the realtime
   // thread's drop counters when they grew (it cannot log itself).
   void Housekeep() {
@@ -140,8 +153,10 @@ struct Server::Impl {
   net::RealtimeChannel realtime;
   net::ControlService service;
   net::ControlServer control;
+  net::ModelFeed models;
   asio::steady_timer housekeeping;
   asio::steady_timer kinematics;
+  asio::steady_timer model_timer;
   std::chrono::steady_clock::time_point last_kinematics;
   bool kinematics_running = false;
   asio::signal_set signals;
@@ -174,6 +189,7 @@ void Server::Run() {
     impl.stopping = true;
     impl.housekeeping.cancel();
     impl.kinematics.cancel();
+    impl.model_timer.cancel();
     impl.control.Stop();
     impl.realtime.Stop();
   });
@@ -185,6 +201,7 @@ void Server::Run() {
   }
   impl.control.Start();
   impl.Housekeep();
+  impl.FeedModels();
   impl.service.OnSceneMoving([&impl] { impl.StartKinematics(); });
   if (impl.service.scene_moving()) impl.StartKinematics();
   Log(LogLevel::kInfo, "serving {} ({} objects, up to {} sessions)", EndpointsJson(),

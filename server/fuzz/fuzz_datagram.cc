@@ -2,7 +2,8 @@
 // on any bytes a device or an attacker could send.
 //
 // Checks, for each input parsed both as a DeviceState and as a DeviceCommand:
-//   - the error is one of the decoder's (oversized exactly when over kMaxDatagramSize);
+//   - the error is one of the decoder's (oversized exactly when over kMaxStateSize,
+//     kMaxCommandSize);
 //   - a decoded message re-encodes, and decoding that gives the same sample (NaN
 //     included), and re-encoding again gives the same bytes: the codec's canonical form;
 //   - CheckTag agrees with libsodium's keyed BLAKE2b computed here, accepts the tag of
@@ -27,7 +28,9 @@ using net::DatagramCodec;
 using net::DatagramError;
 using net::DeviceCommandSample;
 using net::DeviceStateSample;
+using net::kMaxCommandSize;
 using net::kMaxDatagramSize;
+using net::kMaxStateSize;
 using net::kTagSize;
 using net::SessionKey;
 
@@ -42,7 +45,8 @@ bool SameSample(const DeviceStateSample& a, const DeviceStateSample& b) {
   return a.session_id == b.session_id && a.sequence == b.sequence && a.send_time_ns == b.send_time_ns &&
          SameValues(a.p_WD, b.p_WD) && SameValues(a.q_WD.coeffs(), b.q_WD.coeffs()) &&
          SameValues(a.v_WD, b.v_WD) && SameValues(a.w_WD, b.w_WD) && a.buttons == b.buttons &&
-         SameValues(a.f_sensed_W, b.f_sensed_W) && SameValues(a.f_held_W, b.f_held_W) && a.rtt_us == b.rtt_us;
+         SameValues(a.f_sensed_W, b.f_sensed_W) && SameValues(a.f_held_W, b.f_held_W) && a.rtt_us == b.rtt_us &&
+         a.model_version == b.model_version && SameValues(a.avatar_W, b.avatar_W);
 }
 
 bool SameSample(const DeviceCommandSample& a, const DeviceCommandSample& b) {
@@ -50,7 +54,9 @@ bool SameSample(const DeviceCommandSample& a, const DeviceCommandSample& b) {
          a.echo_send_time_ns == b.echo_send_time_ns && a.scene_version == b.scene_version &&
          SameValues(a.f_W, b.f_W) && SameValues(a.tau_W, b.tau_W) && SameValues(a.p_command_W, b.p_command_W) &&
          SameValues(a.q_command_W.coeffs(), b.q_command_W.coeffs()) && SameValues(a.avatar_W, b.avatar_W) &&
-         a.contact == b.contact && a.flags == b.flags;
+         a.contact == b.contact && a.flags == b.flags && a.model.version == b.model.version &&
+         a.model.index == b.model.index && a.model.count == b.model.count &&
+         std::equal(a.model.data.begin(), a.model.data.end(), b.model.data.begin(), b.model.data.end());
 }
 
 // CheckTag's answer, computed independently.
@@ -85,11 +91,11 @@ void CheckRoundTrip(const Sample& decoded, const SessionKey& key, Encode encode,
   }
 }
 
-void CheckError(DatagramError error, std::size_t size) {
+void CheckError(DatagramError error, std::size_t size, std::size_t limit) {
   FUZZ_CHECK(error == DatagramError::kNone || error == DatagramError::kOversized ||
                  error == DatagramError::kMalformed,
              "the parser answered %d", static_cast<int>(error));
-  FUZZ_CHECK((error == DatagramError::kOversized) == (size > kMaxDatagramSize),
+  FUZZ_CHECK((error == DatagramError::kOversized) == (size > limit),
              "a datagram of %zu bytes was answered %.*s", size,
              static_cast<int>(net::DatagramErrorName(error).size()), net::DatagramErrorName(error).data());
   if (size < kTagSize) FUZZ_CHECK(error == DatagramError::kMalformed, "a datagram shorter than a tag parsed");
@@ -116,7 +122,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   const auto parse_state = [](std::span<const uint8_t> d, DeviceStateSample& s) { return codec.ParseState(d, s); };
   DeviceStateSample state;
   const DatagramError state_error = codec.ParseState(datagram, state);
-  CheckError(state_error, size);
+  CheckError(state_error, size, kMaxStateSize);
   if (state_error == DatagramError::kNone) CheckRoundTrip(state, golden_key, encode_state, parse_state);
 
   const auto encode_command = [](const DeviceCommandSample& c, const SessionKey& k, std::span<uint8_t> out) {
@@ -127,7 +133,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   };
   DeviceCommandSample command;
   const DatagramError command_error = codec.ParseCommand(datagram, command);
-  CheckError(command_error, size);
+  CheckError(command_error, size, kMaxCommandSize);
   if (command_error == DatagramError::kNone) CheckRoundTrip(command, golden_key, encode_command, parse_command);
   return 0;
 }

@@ -343,6 +343,7 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const Connect
   Vector3 start_W;
   double timeout_s = 0;
   const force::SessionSettings settings = ReadSessionRequest(open, start_W, timeout_s);
+  const bool local_model = ReadLocalModelMode(open);
   const int index = sessions_.FindFree();
   if (index < 0) {
     throw RequestError(v1::Error::CODE_RESOURCE_EXHAUSTED,
@@ -359,6 +360,11 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const Connect
   slot.timeout_ns = static_cast<int64_t>(std::llround(timeout_s * 1e9));
   slot.render.emplace(settings, options_.tick_work_budget);
   slot.render->Reset(start_W);
+  slot.start_W = start_W;
+  slot.local_model = local_model;
+  if (local_model && !slot.models) slot.models = std::make_unique<ModelMailbox>();
+  slot.sending_version = 0;
+  slot.next_fragment = 0;
   slot.replay.Reset();
   slot.peer_size = 0;
   slot.opened_ns = MonotonicNowNs();
@@ -377,16 +383,17 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const Connect
   sessions_.MarkOpened(index);
   slot.state.store(SlotState::kWaiting, std::memory_order_release);
   ++sessions_opened_;
-  Log(LogLevel::kInfo, "session {} opened: {} {} avatar, {}, {} Hz, max force {} N", SessionName(id),
+  Log(LogLevel::kInfo, "session {} opened: {} {} avatar, {}, {} Hz, max force {} N{}", SessionName(id),
       force::DeviceModeName(settings.device.mode), force::AvatarTypeName(settings.avatar.type),
-      force::ForceMethodName(settings.avatar.method), settings.device.rate_hz, settings.device.max_force);
+      force::ForceMethodName(settings.avatar.method), settings.device.rate_hz, settings.device.max_force,
+      local_model ? ", rendered on the device from local models" : "");
 
   v1::Reply reply;
   v1::SessionOpened* opened = reply.mutable_session_opened();
   opened->set_session_id(id);
   opened->set_session_key(std::string(slot.key.begin(), slot.key.end()));
   opened->set_udp_endpoint(options_.udp_endpoint);
-  opened->set_max_datagram(static_cast<uint32_t>(kMaxDatagramSize));
+  opened->set_max_datagram(static_cast<uint32_t>(kMaxStateSize));
   return reply;
 }
 
@@ -581,6 +588,11 @@ void ControlService::WriteSession(uint32_t id, const SessionTelemetrySample& sam
   out->set_passivity_activations(sample.render.passivity_activations);
   out->set_tick_overruns(sample.render.tick_overruns);
   out->set_tick_us_max(sample.tick_us_max);
+  if (sample.model_version != 0 || sample.model_fragments_sent != 0) {
+    out->set_model_version(sample.model_version);
+    WriteVector(sample.device_avatar_W, out->mutable_device_avatar());
+    out->set_model_fragments_sent(sample.model_fragments_sent);
+  }
 }
 
 void ControlService::WriteCounters(v1::ServerCounters* out) const {

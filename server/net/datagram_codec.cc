@@ -126,14 +126,144 @@ std::array<uint8_t, kBlockSize> KeyBlock(const SessionKey& key) {
   return block;
 }
 
-// Serializes message and appends its tag; 0 when it does not fit.
-std::size_t SealInto(const google::protobuf::MessageLite& message, const TagKey& key, std::span<uint8_t> out) {
-  const std::size_t limit = std::min(out.size(), kMaxDatagramSize);
+// ---- protobuf's wire format, for DeviceCommand.model (field 12) ----
+constexpr uint32_t kModelField = 12;
+constexpr int kVarint = 0, kFixed64 = 1, kLengthDelimited = 2, kFixed32 = 5;
+
+std::size_t VarintSize(uint64_t v) {
+  std::size_t n = 1;
+  while (v >= 0x80) {
+    v >>= 7;
+    ++n;
+  }
+  return n;
+}
+uint8_t* PutVarint(uint64_t v, uint8_t* p) {
+  while (v >= 0x80) {
+    *p++ = static_cast<uint8_t>(v | 0x80);
+    v >>= 7;
+  }
+  *p++ = static_cast<uint8_t>(v);
+  return p;
+}
+uint8_t* PutFixed(uint64_t v, int bytes, uint8_t* p) {
+  for (int i = 0; i < bytes; ++i) *p++ = static_cast<uint8_t>(v >> (8 * i));
+  return p;
+}
+
+// The ModelFragment message's bytes, as protobuf writes them (zero fields left out).
+std::size_t FragmentBodySize(const ModelFragmentView& f) {
+  return (f.version != 0 ? 9 : 0) + (f.index != 0 ? 5 : 0) + (f.count != 0 ? 5 : 0) +
+         (f.data.empty() ? 0 : 1 + VarintSize(f.data.size()) + f.data.size());
+}
+std::size_t FragmentFieldSize(const ModelFragmentView& f) {
+  const std::size_t body = FragmentBodySize(f);
+  return 1 + VarintSize(body) + body;
+}
+// A field's key (its number and wire type), for numbers below 16: one byte.
+uint8_t* PutKey(uint32_t field, int type, uint8_t* p) {
+  *p++ = static_cast<uint8_t>(field << 3 | static_cast<uint32_t>(type));
+  return p;
+}
+uint8_t* PutFragmentField(const ModelFragmentView& f, uint8_t* p) {
+  p = PutVarint(FragmentBodySize(f), PutKey(kModelField, kLengthDelimited, p));
+  if (f.version != 0) p = PutFixed(f.version, 8, PutKey(1, kFixed64, p));
+  if (f.index != 0) p = PutFixed(f.index, 4, PutKey(2, kFixed32, p));
+  if (f.count != 0) p = PutFixed(f.count, 4, PutKey(3, kFixed32, p));
+  if (!f.data.empty()) {
+    p = PutVarint(f.data.size(), PutKey(4, kLengthDelimited, p));
+    p = std::copy(f.data.begin(), f.data.end(), p);
+  }
+  return p;
+}
+
+// Reads protobuf fields off a span; any misstep (a truncated value, an unknown wire
+// type) sets failed.
+struct WireReader {
+  std::span<const uint8_t> in;
+  std::size_t at = 0;
+  bool failed = false;
+
+  bool done() const { return failed || at >= in.size(); }
+  uint64_t Varint() {
+    uint64_t v = 0;
+    for (int shift = 0; shift < 64; shift += 7) {
+      if (at >= in.size()) break;
+      const uint8_t byte = in[at++];
+      v |= uint64_t{byte & 0x7fu} << shift;
+      if (!(byte & 0x80)) return v;
+    }
+    failed = true;
+    return 0;
+  }
+  uint64_t Fixed(int bytes) {
+    if (in.size() - at < static_cast<std::size_t>(bytes)) {
+      failed = true;
+      return 0;
+    }
+    uint64_t v = 0;
+    for (int i = 0; i < bytes; ++i) v |= uint64_t{in[at++]} << (8 * i);
+    return v;
+  }
+  std::span<const uint8_t> Bytes() {
+    const uint64_t size = Varint();
+    if (failed || size > in.size() - at) {
+      failed = true;
+      return {};
+    }
+    const auto bytes = in.subspan(at, size);
+    at += size;
+    return bytes;
+  }
+  // Skips a field's value of wire type `type`.
+  void Skip(int type) {
+    switch (type) {
+      case kVarint: Varint(); return;
+      case kFixed64: Fixed(8); return;
+      case kLengthDelimited: Bytes(); return;
+      case kFixed32: Fixed(4); return;
+      default: failed = true;
+    }
+  }
+};
+
+// The fragment in body (a ModelFragment's bytes); false when it does not parse or
+// breaks the bounds.
+bool ReadFragment(std::span<const uint8_t> body, ModelFragmentView& out) {
+  out = {};
+  WireReader reader{body};
+  while (!reader.done()) {
+    const uint64_t key = reader.Varint();
+    const int type = static_cast<int>(key & 7);
+    const uint64_t field = key >> 3;
+    if (field == 1 && type == kFixed64) {
+      out.version = reader.Fixed(8);
+    } else if (field == 2 && type == kFixed32) {
+      out.index = static_cast<uint32_t>(reader.Fixed(4));
+    } else if (field == 3 && type == kFixed32) {
+      out.count = static_cast<uint32_t>(reader.Fixed(4));
+    } else if (field == 4 && type == kLengthDelimited) {
+      out.data = reader.Bytes();
+    } else {
+      reader.Skip(type);
+    }
+  }
+  return !reader.failed && out.count >= 1 && out.count <= kMaxModelFragments && out.index < out.count &&
+         out.data.size() <= kModelChunkSize;
+}
+
+// Serializes message, then `fragment` (when it has a count) as its last field, and
+// appends the tag; 0 when it does not fit in min(out, limit).
+std::size_t SealInto(const google::protobuf::MessageLite& message, const ModelFragmentView* fragment,
+                     const TagKey& key, std::span<uint8_t> out, std::size_t limit) {
+  limit = std::min(out.size(), limit);
   const std::size_t size = message.ByteSizeLong();
-  if (size + kTagSize > limit) return 0;
+  const std::size_t extra = fragment != nullptr && fragment->count != 0 ? FragmentFieldSize(*fragment) : 0;
+  if (size + extra + kTagSize > limit) return 0;
   if (!message.SerializeToArray(out.data(), static_cast<int>(size))) return 0;
-  ComputeTag(out.first(size), key, out.data() + size);
-  return size + kTagSize;
+  if (extra != 0) PutFragmentField(*fragment, out.data() + size);
+  ComputeTag(out.first(size + extra), key, out.data() + size + extra);
+  return size + extra + kTagSize;
 }
 
 }  // namespace
@@ -191,6 +321,8 @@ struct DatagramCodec::Impl {
   // Messages live on the arena, which is reset (not freed) after each use.
   alignas(64) std::array<char, kArenaBlockSize> block;
   google::protobuf::Arena arena;
+  // A command's bytes without its model fragment, for protobuf to parse.
+  std::array<uint8_t, kMaxCommandSize> rest;
 };
 
 DatagramCodec::DatagramCodec() : impl_(std::make_unique<Impl>()) {
@@ -214,7 +346,9 @@ std::size_t DatagramCodec::EncodeState(const DeviceStateSample& state, const Tag
   SetVector(message, &pb::DeviceState::mutable_sensed_force, state.f_sensed_W);
   SetVector(message, &pb::DeviceState::mutable_held_force, state.f_held_W);
   message->set_rtt_us(state.rtt_us);
-  const std::size_t size = SealInto(*message, key, out);
+  message->set_model_version(state.model_version);
+  SetVector(message, &pb::DeviceState::mutable_avatar, state.avatar_W);
+  const std::size_t size = SealInto(*message, nullptr, key, out, kMaxStateSize);
   impl_->arena.Reset();
   return size;
 }
@@ -233,13 +367,20 @@ std::size_t DatagramCodec::EncodeCommand(const DeviceCommandSample& command, con
   SetVector(message, &pb::DeviceCommand::mutable_avatar, command.avatar_W);
   message->set_contact(command.contact);
   message->set_flags(command.flags);
-  const std::size_t size = SealInto(*message, key, out);
+  // a fragment the parser would refuse is not sent either
+  const ModelFragmentView& model = command.model;
+  if (model.count != 0 && !(model.count <= kMaxModelFragments && model.index < model.count &&
+                            model.data.size() <= kModelChunkSize)) {
+    impl_->arena.Reset();
+    return 0;
+  }
+  const std::size_t size = SealInto(*message, &command.model, key, out, kMaxCommandSize);
   impl_->arena.Reset();
   return size;
 }
 
 DatagramError DatagramCodec::ParseState(std::span<const uint8_t> datagram, DeviceStateSample& out) {
-  if (datagram.size() > kMaxDatagramSize) return DatagramError::kOversized;
+  if (datagram.size() > kMaxStateSize) return DatagramError::kOversized;
   if (datagram.size() < kTagSize) return DatagramError::kMalformed;
   auto* message = google::protobuf::Arena::CreateMessage<pb::DeviceState>(&impl_->arena);
   const auto body = datagram.first(datagram.size() - kTagSize);
@@ -256,6 +397,8 @@ DatagramError DatagramCodec::ParseState(std::span<const uint8_t> datagram, Devic
     out.f_sensed_W = FromProto(message->sensed_force());
     out.f_held_W = FromProto(message->held_force());
     out.rtt_us = message->rtt_us();
+    out.model_version = message->model_version();
+    out.avatar_W = FromProto(message->avatar());
     result = DatagramError::kNone;
   }
   impl_->arena.Reset();
@@ -263,10 +406,33 @@ DatagramError DatagramCodec::ParseState(std::span<const uint8_t> datagram, Devic
 }
 
 DatagramError DatagramCodec::ParseCommand(std::span<const uint8_t> datagram, DeviceCommandSample& out) {
-  if (datagram.size() > kMaxDatagramSize) return DatagramError::kOversized;
+  if (datagram.size() > kMaxCommandSize) return DatagramError::kOversized;
   if (datagram.size() < kTagSize) return DatagramError::kMalformed;
+  std::span<const uint8_t> body = datagram.first(datagram.size() - kTagSize);
+  // the model fragment, read here; protobuf parses the rest (a second one is malformed)
+  out.model = {};
+  WireReader reader{body};
+  std::size_t fragment_begin = 0, fragment_end = 0;
+  while (!reader.done()) {
+    const std::size_t field_begin = reader.at;
+    const uint64_t key = reader.Varint();
+    if ((key >> 3) == kModelField && (key & 7) == kLengthDelimited) {
+      const std::span<const uint8_t> fragment = reader.Bytes();
+      if (reader.failed || fragment_end != 0 || !ReadFragment(fragment, out.model)) return DatagramError::kMalformed;
+      fragment_begin = field_begin;
+      fragment_end = reader.at;
+    } else {
+      reader.Skip(static_cast<int>(key & 7));
+    }
+  }
+  if (reader.failed) return DatagramError::kMalformed;
+  if (fragment_end != 0) {
+    uint8_t* rest = impl_->rest.data();
+    uint8_t* tail = std::copy(body.begin(), body.begin() + fragment_begin, rest);
+    tail = std::copy(body.begin() + fragment_end, body.end(), tail);
+    body = std::span<const uint8_t>(rest, static_cast<std::size_t>(tail - rest));
+  }
   auto* message = google::protobuf::Arena::CreateMessage<pb::DeviceCommand>(&impl_->arena);
-  const auto body = datagram.first(datagram.size() - kTagSize);
   DatagramError result = DatagramError::kMalformed;
   if (message->ParseFromArray(body.data(), static_cast<int>(body.size()))) {
     out.session_id = message->session_id();

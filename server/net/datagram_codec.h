@@ -3,6 +3,10 @@
 // DeviceCommand encoded with protobuf, followed by a 16-byte keyed BLAKE2b tag under the
 // session's key (RFC 7693; the same bytes as libsodium's crypto_generichash).
 //
+// A command may carry one fragment of a local model (DeviceCommand.model, its last
+// field). Its bytes are written and read here by hand, in protobuf's wire format and
+// byte for byte what protobuf writes: a bytes field parsed by protobuf would allocate.
+//
 // A codec owns one protobuf arena over a fixed buffer, so after construction encoding and
 // decoding allocate nothing: one codec per thread, used on the real-time path. Decoding
 // never throws; a datagram that is too long, does not parse or carries a bad tag yields
@@ -26,7 +30,17 @@ namespace hapticd::net {
 using Vector3 = Eigen::Vector3d;
 using Quaternion = Eigen::Quaterniond;
 
-inline constexpr std::size_t kMaxDatagramSize = 512;  // bytes, tag included
+// Bytes, tag included: a state at most 512 (what a device sends the server), a command at
+// most 1400 (it may carry a model fragment; under Ethernet's 1472-byte UDP payload with
+// room for a tunnel's headers). kMaxDatagramSize is the larger: a buffer for either.
+inline constexpr std::size_t kMaxStateSize = 512;
+inline constexpr std::size_t kMaxCommandSize = 1400;
+inline constexpr std::size_t kMaxDatagramSize = kMaxCommandSize;
+// A local model travels in fragments of kModelChunkSize bytes (the last one shorter),
+// at most kMaxModelFragments of them.
+inline constexpr std::size_t kModelChunkSize = 1024;
+inline constexpr std::size_t kMaxModelFragments = 96;
+inline constexpr std::size_t kMaxModelBytes = kModelChunkSize * kMaxModelFragments;
 inline constexpr std::size_t kTagSize = 16;
 inline constexpr std::size_t kSessionKeySize = 32;
 using SessionKey = std::array<uint8_t, kSessionKeySize>;
@@ -44,6 +58,17 @@ struct DeviceStateSample {
   Vector3 f_sensed_W = Vector3::Zero();  // admittance: the person's force, N
   Vector3 f_held_W = Vector3::Zero();    // impedance: the force held since the last state
   uint32_t rtt_us = 0;
+  uint64_t model_version = 0;            // local model: the newest the device holds
+  Vector3 avatar_W = Vector3::Zero();    // local model: the device's own proxy
+};
+
+// One fragment of a local model's encoding (hapticd.v1.ModelFragment); count 0: none.
+// data points into the buffer it was encoded from or parsed out of.
+struct ModelFragmentView {
+  uint64_t version = 0;
+  uint32_t index = 0;
+  uint32_t count = 0;
+  std::span<const uint8_t> data;
 };
 
 // The server's answer (hapticd.v1.DeviceCommand).
@@ -59,6 +84,7 @@ struct DeviceCommandSample {
   Vector3 avatar_W = Vector3::Zero();
   bool contact = false;
   uint32_t flags = 0;  // hapticd.v1.CommandFlags
+  ModelFragmentView model;  // count 0: the command carries none
 };
 
 // A session key ready to tag with: BLAKE2b's chaining value after the key block (one
@@ -97,7 +123,8 @@ class DatagramCodec {
   DatagramCodec& operator=(const DatagramCodec&) = delete;
 
   // Encode a message and its tag into out; returns the datagram's size, or 0 when it
-  // does not fit in out (or in kMaxDatagramSize). Real-time safe.
+  // does not fit in out (or in kMaxStateSize, kMaxCommandSize), or when the command's
+  // model fragment is one ParseCommand would refuse. Real-time safe.
   std::size_t EncodeState(const DeviceStateSample& state, const TagKey& key, std::span<uint8_t> out);
   std::size_t EncodeCommand(const DeviceCommandSample& command, const TagKey& key, std::span<uint8_t> out);
   // The same, preparing the key on each call (one compression more).
@@ -110,7 +137,9 @@ class DatagramCodec {
 
   // Parse a datagram's message without checking its tag (the session id in it says
   // which key to check it with: CheckTag). kNone, kOversized or kMalformed; out is
-  // unspecified unless kNone. Real-time safe.
+  // unspecified unless kNone. A command's model fragment points into datagram. A
+  // fragment of more than kMaxModelFragments, an index not below its count or more than
+  // kModelChunkSize bytes is malformed. Real-time safe.
   DatagramError ParseState(std::span<const uint8_t> datagram, DeviceStateSample& out);
   DatagramError ParseCommand(std::span<const uint8_t> datagram, DeviceCommandSample& out);
 

@@ -215,6 +215,21 @@ force::SessionSettings ReadSessionRequest(const v1::OpenSession& open, Vector3& 
   return settings;
 }
 
+bool ReadLocalModelMode(const v1::OpenSession& open) {
+  switch (open.remote_mode()) {
+    case v1::REMOTE_MODE_DIRECT: return false;
+    case v1::REMOTE_MODE_LOCAL_MODEL:
+      if (open.device_type() == v1::DEVICE_TYPE_ADMITTANCE) {
+        throw BadRequest("open_session.remote_mode is local_model for an admittance device; a local model is "
+                         "for impedance devices (an admittance device's pose comes from the server's avatar)");
+      }
+      return true;
+    default:
+      throw BadRequest(fmt::format("open_session.remote_mode is {}; it must be direct (0) or local_model (1)",
+                                   static_cast<int>(open.remote_mode())));
+  }
+}
+
 void WriteVector(const Vector3& v, v1::Vec3* out) {
   out->set_x(v.x());
   out->set_y(v.y());

@@ -27,6 +27,11 @@ scene::ObjectSpec ReadObject(const v1::Object& object, const std::string& field)
 force::SessionSettings ReadSessionRequest(const v1::OpenSession& open, geometry::Vector3& start_W,
                                           double& timeout_s);
 
+// Whether an OpenSession asks for a local model (REMOTE_MODE_LOCAL_MODEL); RequestError
+// for an unknown mode or a local model for an admittance device (its pose comes from
+// the server's avatar dynamics).
+bool ReadLocalModelMode(const v1::OpenSession& open);
+
 void WriteVector(const geometry::Vector3& v, v1::Vec3* out);
 void WritePose(const scene::Pose& pose, v1::Pose* out);
 void WriteMaterial(const scene::Material& material, v1::Material* out);

@@ -15,6 +15,7 @@
 #include <asio/io_context.hpp>
 
 #include "hapticd/v1/hapticd.pb.h"
+#include "server/net/model_codec.h"
 
 namespace hapticd::net {
 namespace {
@@ -55,12 +56,12 @@ int64_t MonotonicNowNs() {
 
 struct RealtimeChannel::Batch {
   // One byte more than a datagram may have, so an oversized one is seen as such.
-  std::array<std::array<uint8_t, kMaxDatagramSize + 1>, kBatch> in_data;
+  std::array<std::array<uint8_t, kMaxStateSize + 1>, kBatch> in_data;
   std::array<iovec, kBatch> in_iov;
   std::array<sockaddr_storage, kBatch> in_peer;
   std::array<mmsghdr, kBatch> in_msgs;
   // Commands to send; at most one per received datagram plus one per silent session.
-  std::vector<std::array<uint8_t, kMaxDatagramSize>> out_data;
+  std::vector<std::array<uint8_t, kMaxCommandSize>> out_data;
   std::vector<iovec> out_iov;
   std::vector<mmsghdr> out_msgs;
 };
@@ -171,7 +172,7 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
   const std::span<const uint8_t> datagram(b.in_data[index].data(), message.msg_len);
 
   // Size, then the message, then whose it is, then its tag, then its freshness.
-  if ((message.msg_hdr.msg_flags & MSG_TRUNC) || datagram.size() > kMaxDatagramSize) {
+  if ((message.msg_hdr.msg_flags & MSG_TRUNC) || datagram.size() > kMaxStateSize) {
     counters_.oversized.fetch_add(1, std::memory_order_relaxed);
     return false;
   }
@@ -251,6 +252,10 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
   telemetry.last_sequence = state.sequence;
   ++telemetry.states_received;
   telemetry.tick_us_max = std::max(telemetry.tick_us_max, tick_us);
+  if (slot.local_model) {
+    telemetry.model_version = state.model_version;
+    telemetry.device_avatar_W = state.avatar_W;
+  }
   const bool queued = QueueCommand(slot, output, state.sequence, state.send_time_ns, scene.version(),
                                    output.overrun ? v1::COMMAND_FLAGS_OVERRUN : v1::COMMAND_FLAGS_NONE, reply);
   PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
@@ -335,8 +340,22 @@ bool RealtimeChannel::QueueCommand(SessionSlot& slot, const force::TickOutput& o
   command.avatar_W = output.avatar_W;
   command.contact = output.contact;
   command.flags = flags;
-
   SessionTelemetrySample& telemetry = slot.telemetry;
+  // a local model the device does not hold yet: its fragments in turn
+  if (slot.local_model) {
+    const EncodedModel& model = slot.models->Newest();
+    if (model.session_id == slot.id && model.version > telemetry.model_version) {
+      if (model.version != slot.sending_version) {
+        slot.sending_version = model.version;
+        slot.next_fragment = 0;
+      }
+      command.model = Fragment(std::span<const uint8_t>(model.bytes.data(), model.size), model.version,
+                               slot.next_fragment);
+      slot.next_fragment = (slot.next_fragment + 1) % command.model.count;
+      ++telemetry.model_fragments_sent;
+    }
+  }
+
   telemetry.f_W = command.f_W;
   telemetry.p_WD = slot.last_input.p_WD;
   telemetry.avatar_W = output.avatar_W;

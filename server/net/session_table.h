@@ -24,6 +24,7 @@
 #include <netinet/in.h>
 #include "server/force/render_session.h"
 #include "server/net/datagram_codec.h"
+#include "server/net/model_mailbox.h"
 #include "server/net/replay_window.h"
 
 namespace hapticd::net {
@@ -48,6 +49,11 @@ struct SessionTelemetrySample {
   uint64_t bad_tag = 0;
   double tick_us_max = 0;  // longest render tick of the session so far
   force::SessionCounters render;
+  // Local-model sessions: the newest model the device said it holds, its own proxy
+  // there, and the model fragments sent.
+  uint64_t model_version = 0;
+  Vector3 device_avatar_W = Vector3::Zero();
+  uint64_t model_fragments_sent = 0;
 };
 
 // A single-writer sequence lock around a trivially copyable value: the writer never
@@ -89,6 +95,11 @@ struct SessionSlot {
   int64_t period_ns = 1'000'000;
   int64_t timeout_ns = 2'000'000'000;
   std::optional<force::RenderSession> render;
+  Vector3 start_W = Vector3::Zero();
+  // The device renders from local models (REMOTE_MODE_LOCAL_MODEL), which the model
+  // thread cuts into `models`: made for the first such session the slot holds and kept.
+  bool local_model = false;
+  std::unique_ptr<ModelMailbox> models;
   // ----
   ReplayWindow replay;
   sockaddr_storage peer{};
@@ -99,6 +110,8 @@ struct SessionSlot {
   int64_t next_silent_tick_ns = 0;
   force::DeviceInput last_input;
   bool ramp_done = false;  // the watchdog's force reached zero; stop sending
+  uint64_t sending_version = 0;  // the model whose fragments go out in turn
+  uint32_t next_fragment = 0;
   SessionTelemetrySample telemetry;  // the realtime thread's working copy
   SeqLocked<SessionTelemetrySample> published;
 

@@ -79,7 +79,7 @@ LocalModel CutLocalModel(const scene::SceneSnapshot& scene, const Vector3& cente
     spec.w_WB = object.w_WB;
     spec.ray_backend = scene::RayBackend::kNative;
     bool cut = true;    // false: no room for it
-    bool empty = false; // a mesh with no triangle within the ball: nothing to send
+    bool empty = false; // nothing of it within the ball (a mesh patch, a plane below): nothing to send
     std::visit(
         [&](const auto& shape) {
           using T = std::decay_t<decltype(shape)>;
@@ -94,6 +94,11 @@ LocalModel CutLocalModel(const scene::SceneSnapshot& scene, const Vector3& cente
               empty = patch->triangles.empty();
               spec.shape = std::move(*patch);
             }
+          } else if constexpr (std::is_same_v<T, scene::PlaneShape>) {
+            // unbounded, so always near in the broad phase: its solid (z <= 0 in B)
+            // misses the ball when the centre is more than radius above it
+            empty = object.X_WB.ToBody(center_W).z() > radius;
+            spec.shape = shape;
           } else {
             spec.shape = shape;
           }
@@ -120,23 +125,38 @@ void LocalRenderer::Reset(const Vector3& p_W) {
   blend_left_s_ = 0;
 }
 
-bool LocalRenderer::Accept(const LocalModel& model, double now_s) {
-  if (model.version <= version_) return false;
-  scene::SceneBuilder builder(model.settings);
-  for (const scene::ObjectSpec& spec : model.objects) builder.Add(spec);
-  builder.AdvanceKinematic(std::max(now_s - model.t_s, 0.0));
-  previous_ = std::move(scene_);
-  scene_ = builder.Build(model.version);
-  builder_ = std::move(builder);
-  moving_ = builder_.HasMovingObjects();
-  version_ = model.version;
-  center_W_ = model.center_W;
-  radius_ = model.radius;
+std::unique_ptr<PreparedModel> LocalRenderer::Prepare(const LocalModel& model, double now_s) {
+  auto prepared = std::make_unique<PreparedModel>();
+  prepared->builder = scene::SceneBuilder(model.settings);
+  for (const scene::ObjectSpec& spec : model.objects) prepared->builder.Add(spec);
+  prepared->builder.AdvanceKinematic(std::max(now_s - model.t_s, 0.0));
+  prepared->scene = prepared->builder.Build(model.version);
+  prepared->moving = prepared->builder.HasMovingObjects();
+  prepared->version = model.version;
+  prepared->center_W = model.center_W;
+  prepared->radius = model.radius;
+  return prepared;
+}
+
+bool LocalRenderer::Adopt(std::unique_ptr<PreparedModel>& model) {
+  if (!model || model->version <= version_) return false;
+  // a model adopted twice before a tick: the one in between is never rendered
+  std::unique_ptr<PreparedModel> skipped = std::move(previous_);
+  previous_ = std::move(model_);
+  model_ = std::move(model);
+  version_ = model_->version;
+  if (skipped) model = std::move(skipped);  // back to the caller, to free
   return true;
 }
 
+bool LocalRenderer::Accept(const LocalModel& model, double now_s) {
+  if (model.version <= version_) return false;
+  std::unique_ptr<PreparedModel> prepared = Prepare(model, now_s);
+  return Adopt(prepared);
+}
+
 bool LocalRenderer::Covers(const Vector3& p_W) const {
-  return radius_ >= 0 && (p_W - center_W_).norm() + session_.settings().avatar.radius <= radius_;
+  return model_ && (p_W - model_->center_W).norm() + session_.settings().avatar.radius <= model_->radius;
 }
 
 namespace {
@@ -157,27 +177,27 @@ bool SameSurfaceNear(const scene::SceneSnapshot& a, const scene::SceneSnapshot& 
 
 force::TickOutput LocalRenderer::Tick(const force::DeviceInput& input, double dt) {
   static const scene::SceneSnapshot kFreeSpace(std::vector<scene::SceneObject>{}, scene::SceneSettings{}, 0);
-  const scene::SceneSnapshot& scene = scene_ ? *scene_ : kFreeSpace;
+  const scene::SceneSnapshot& scene = model_ ? *model_->scene : kFreeSpace;
   force::TickOutput output = session_.Tick(scene, input, dt);
   // admittance: the pose follows the avatar's dynamics, which smooth it already
   if (previous_ && session_.settings().device.mode == force::DeviceMode::kImpedance) {
     // the first tick on a new model: blend where it disagrees with the old one
-    if (!SameSurfaceNear(*previous_, scene, last_avatar_W_, session_.settings().avatar.radius)) {
+    if (!SameSurfaceNear(*previous_->scene, scene, last_avatar_W_, session_.settings().avatar.radius)) {
       blend_offset_W_ = last_f_W_ - output.f_W;
       blend_left_s_ = kModelBlendS;
       ++blends_;
     }
   }
-  previous_.reset();
+  if (previous_) retired_ = std::move(previous_);
   if (blend_left_s_ > 0) {
     output.f_W += blend_offset_W_ * (blend_left_s_ / kModelBlendS);
     blend_left_s_ -= dt;
   }
   last_avatar_W_ = output.avatar_W;
   last_f_W_ = output.f_W;
-  if (moving_ && scene_) {
-    builder_.AdvanceKinematic(dt);
-    scene_ = builder_.Build(version_);
+  if (model_ && model_->moving) {
+    model_->builder.AdvanceKinematic(dt);
+    model_->scene = model_->builder.Build(version_);
   }
   return output;
 }

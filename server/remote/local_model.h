@@ -61,6 +61,18 @@ double ModelRadius(double max_velocity, double round_trip_s, double model_interv
 LocalModel CutLocalModel(const scene::SceneSnapshot& scene, const Vector3& center_W, double radius,
                          uint64_t version, double t_s);
 
+// A model built into the scene a device renders from: made by LocalRenderer::Prepare
+// (allocates), taken by Adopt (does not), so a real-time device builds it on another
+// thread.
+struct PreparedModel {
+  uint64_t version = 0;
+  Vector3 center_W = Vector3::Zero();
+  double radius = -1;
+  scene::SceneBuilder builder;  // keeps the objects, to move the kinematic ones on
+  std::shared_ptr<const scene::SceneSnapshot> scene;
+  bool moving = false;  // some kinematic object has a velocity
+};
+
 // The device side: renders from the newest model it has.
 class LocalRenderer {
  public:
@@ -70,14 +82,22 @@ class LocalRenderer {
   ~LocalRenderer();
 
   void Reset(const Vector3& p_W);
-  // Takes model, older versions than the one held ignored (false); now_s is the time
-  // on the renderer's clock, to move the kinematic objects on from the cut. Builds a
-  // scene: allocates (a device does this off its real-time thread).
+  // Builds model's scene, its kinematic objects moved on from the cut to now_s (the
+  // renderer's clock). Allocates: off the real-time thread.
+  static std::unique_ptr<PreparedModel> Prepare(const LocalModel& model, double now_s);
+  // Renders from model from the next tick on; a version no newer than the one held is
+  // left with the caller (false). Allocates and frees nothing: the model it replaces is
+  // kept until the tick after (to blend against), then waits in TakeRetired.
+  bool Adopt(std::unique_ptr<PreparedModel>& model);
+  // The model a tick has finished with, for the caller to free where it may (null if
+  // none). Left untaken, it is freed by the next Adopt.
+  std::unique_ptr<PreparedModel> TakeRetired() { return std::move(retired_); }
+  // Prepare and Adopt at once (the simulator's device, which may allocate).
   bool Accept(const LocalModel& model, double now_s);
   // One tick from the newest model (free space before any), then its kinematic objects
   // move on by dt. Allocates nothing for a model without moving objects; with them it
-  // builds the moved scene each tick (allocates: the simulator's device may, a real-time
-  // device loop will have to move them off its thread).
+  // builds the moved scene each tick (allocates: a real-time device loop holding one
+  // breaks its rule; moving them in place is left to do).
   force::TickOutput Tick(const force::DeviceInput& input, double dt);
 
   uint64_t model_version() const { return version_; }
@@ -89,13 +109,10 @@ class LocalRenderer {
 
  private:
   force::RenderSession session_;
-  scene::SceneBuilder builder_;
-  std::shared_ptr<const scene::SceneSnapshot> scene_;
-  std::shared_ptr<const scene::SceneSnapshot> previous_;  // until the first tick on scene_
+  std::unique_ptr<PreparedModel> model_;
+  std::unique_ptr<PreparedModel> previous_;  // until the first tick on model_
+  std::unique_ptr<PreparedModel> retired_;   // previous_ after that tick
   uint64_t version_ = 0;
-  Vector3 center_W_ = Vector3::Zero();
-  double radius_ = -1;
-  bool moving_ = false;  // some kinematic object has a velocity
   Vector3 last_avatar_W_ = Vector3::Zero();
   Vector3 last_f_W_ = Vector3::Zero();
   Vector3 blend_offset_W_ = Vector3::Zero();  // decays to zero over kModelBlendS

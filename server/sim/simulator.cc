@@ -199,7 +199,7 @@ SimSummary Simulator::Run(const TraceSink& trace) {
       force::DeviceInput own{true, state.p_W, state.v_W, state.f_held_W, state.f_sensed_W};
       local_output = local_renderer->Tick(own, dt);
       if (!local_renderer->Covers(local_output.avatar_W)) ++summary.ticks_outside_model;
-      render(DeviceCommand{local_output.f_W, local_output.p_command_W}, state);
+      render(DeviceCommand{local_output.f_W, local_output.p_command_W, 0, nullptr}, state);
       state.avatar_W = local_output.avatar_W;
       state.model_version = local_renderer->model_version();
     }

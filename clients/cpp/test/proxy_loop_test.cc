@@ -8,12 +8,14 @@
 #include <atomic>
 #include <functional>
 #include <memory>
+#include <string>
 #include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "clients/cpp/sim_device_driver.h"
+#include "clients/cpp/tick_schedule.h"
 
 namespace hapticd::proxy {
 namespace {
@@ -144,6 +146,78 @@ TEST(ProxyLoop, RendersTheServersForceAndReportsItHeld) {
   EXPECT_EQ(report.max_force_n, 3);
   EXPECT_EQ(report.contacts, static_cast<int64_t>(report.packets.answered));
   EXPECT_EQ(report.packets.lost(), 0u);
+}
+
+// Across a delay every command is late: the device renders the newest that came. A
+// server that answers each state three states late, with a force that names the state.
+TEST(ProxyLoop, RendersTheNewestCommandEvenWhenLate) {
+  Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
+    thread_local net::DatagramCodec codec;
+    net::DeviceStateSample state;
+    if (codec.ParseState(in, state) != net::DatagramError::kNone || state.sequence <= 3) return 0;
+    net::DeviceCommandSample command;
+    command.session_id = kSession;
+    command.sequence = state.sequence - 3;
+    command.f_W = Vector3(0, 0, static_cast<double>(command.sequence) * 1e-3);
+    return codec.EncodeCommand(command, TestKey(), out);
+  });
+  HeldDeviceDriver device(HeldCaps());
+  RealtimeLink link(kSession, TestKey(), server.endpoint());
+  ProxyLoop loop(ShortRun(0.05), {{&device, &link}});
+  const ProxyReport report = loop.Run();
+
+  EXPECT_EQ(report.packets.answered, 0u);
+  EXPECT_GT(report.packets.late, 0u);
+  // the force of the newest late command is rendered (the watchdog holds it 50 ms)
+  EXPECT_GT(report.max_force_n, 0);
+  EXPECT_GT(device.last_output().f_W.z(), 0);
+  EXPECT_LE(device.last_output().f_W.z(), static_cast<double>(report.packets.sent - 3) * 1e-3 + 1e-12);
+}
+
+// A local-model session: the server's commands carry the model of a 2000 N/m floor in
+// fragments (and no force); the device renders the floor itself, 2 mm in: 4 N, and its
+// states say which model it holds and where its proxy is.
+TEST(ProxyLoop, ALocalModelDeviceRendersTheModelItWasSent) {
+  scene::SceneBuilder builder;
+  scene::ObjectSpec floor;
+  floor.name = "floor";
+  floor.shape = scene::PlaneShape{};
+  floor.material.stiffness = 2000;
+  builder.Add(floor);
+  const remote::LocalModel model = remote::CutLocalModel(*builder.Build(1), HeldCaps().start_W, 0.2, 1, 0);
+  const std::string encoded = net::EncodeLocalModel(model);
+  std::atomic<uint64_t> held_version{0};
+  std::atomic<double> avatar_z{-1};
+  Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
+    thread_local net::DatagramCodec codec;
+    net::DeviceStateSample state;
+    if (codec.ParseState(in, state) != net::DatagramError::kNone) return 0;
+    held_version = state.model_version;
+    avatar_z = state.avatar_W.z();
+    net::DeviceCommandSample command;
+    command.session_id = kSession;
+    command.sequence = state.sequence;
+    if (state.model_version < model.version) {
+      const std::span<const uint8_t> bytes(reinterpret_cast<const uint8_t*>(encoded.data()), encoded.size());
+      command.model = net::Fragment(bytes, model.version, static_cast<uint32_t>(state.sequence % net::FragmentCount(bytes.size())));
+    }
+    return codec.EncodeCommand(command, TestKey(), out);
+  });
+  HeldDeviceDriver device(HeldCaps());
+  RealtimeLink link(kSession, TestKey(), server.endpoint());
+  LocalModelDevice local(force::SessionSettings{}, HeldCaps().start_W, MonotonicNowNs());
+  ProxyLoop loop(ShortRun(0.1), {{&device, &link, &local}});
+  const ProxyReport report = loop.Run();
+
+  EXPECT_EQ(report.models.adopted, 1u);
+  EXPECT_EQ(report.models.version, 1u);
+  EXPECT_EQ(report.models.rejected, 0u);
+  EXPECT_NEAR(device.last_output().f_W.z(), 4.0, 1e-2);
+  EXPECT_EQ(report.final_f_W, device.last_output().f_W);
+  EXPECT_EQ(report.final_p_W, HeldCaps().start_W);
+  EXPECT_EQ(held_version.load(), 1u);
+  EXPECT_NEAR(avatar_z.load(), 0.0, 1e-5);  // on the floor's face
+  EXPECT_GT(report.contacts, 0);
 }
 
 // A handle moving down at a constant speed, whatever force it is given.

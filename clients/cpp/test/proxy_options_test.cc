@@ -65,6 +65,17 @@ TEST(ProxyOptions, SendsTheRealtimeDatagramsViaARelay) {
   EXPECT_EQ(ErrorOf({"--server", "a:1", "--udp-via", "relay"}), "--udp-via \"relay\" is not HOST:PORT: there is no port");
 }
 
+TEST(ProxyOptions, ChoosesWhereTheForceIsRendered) {
+  EXPECT_FALSE(Parse({"--server", "a:1"}).local_model);
+  EXPECT_FALSE(Parse({"--server", "a:1", "--remote-mode", "direct"}).local_model);
+  EXPECT_TRUE(Parse({"--server", "a:1", "--remote-mode", "local-model"}).local_model);
+  EXPECT_EQ(ErrorOf({"--server", "a:1", "--remote-mode", "local"}),
+            "--remote-mode is \"local\"; it must be direct or local-model");
+  const std::string refused = "--remote-mode local-model is for an impedance device served by hapticd (--server)";
+  EXPECT_EQ(ErrorOf({"--echo", "a:1", "--remote-mode", "local-model"}), refused);
+  EXPECT_EQ(ErrorOf({"--server", "a:1", "--mode", "admittance", "--remote-mode", "local-model"}), refused);
+}
+
 TEST(ProxyOptions, HelpNeedsNothingElse) { EXPECT_TRUE(Parse({"--help"}).help); }
 
 TEST(ProxyOptions, BadValuesAreNamed) {

@@ -7,6 +7,8 @@
 
 #include <chrono>
 #include <optional>
+#include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -64,9 +66,11 @@ class FakeServer {
     sendto(fd_, bytes.data(), bytes.size(), 0, reinterpret_cast<const sockaddr*>(&peer_), sizeof peer_);
   }
 
-  // A command for sequence, sealed under key.
-  void SendCommand(uint64_t sequence, const net::SessionKey& key, uint32_t session = kSession, double fx = 1.5) {
+  // A command for sequence, sealed under key, carrying fragment when given.
+  void SendCommand(uint64_t sequence, const net::SessionKey& key, uint32_t session = kSession, double fx = 1.5,
+                   const net::ModelFragmentView& fragment = {}) {
     net::DeviceCommandSample command;
+    command.model = fragment;
     command.session_id = session;
     command.sequence = sequence;
     command.f_W = Vector3(fx, 0, 0);
@@ -203,6 +207,75 @@ TEST_F(LinkFixture, AnAnswerAfterItsWaitIsLate) {
   // its wire round trip is still recorded
   ASSERT_EQ(wire.count(), 1u);
   EXPECT_GT(wire.samples()[0], 0);
+}
+
+// Across a delay every command is late: the newest one that came is kept for the loop to
+// render, an older one arriving after it is not.
+TEST_F(LinkFixture, TheNewestCommandIsKeptInTimeOrLate) {
+  EXPECT_FALSE(link.fresh());
+  const uint64_t first = SendState();
+  const uint64_t second = SendState();
+  link.Expire();
+  server.SendCommand(second, key, kSession, 2.0);
+  DrainUntilCounted(link, &LinkCounters::late, 1);
+  ASSERT_TRUE(link.fresh());
+  EXPECT_EQ(link.newest().sequence, second);
+  EXPECT_EQ(link.newest().f_W, Vector3(2.0, 0, 0));
+  link.ClearFresh();
+  server.SendCommand(first, key, kSession, 1.0);
+  DrainUntilCounted(link, &LinkCounters::late, 2);
+  EXPECT_FALSE(link.fresh());
+  EXPECT_EQ(link.newest().sequence, second);
+  // the next state's answer in time is the newest too
+  const uint64_t third = SendState();
+  server.SendCommand(third, key, kSession, 3.0);
+  ASSERT_TRUE(AwaitOne(set));
+  EXPECT_TRUE(link.fresh());
+  EXPECT_EQ(link.newest().f_W, Vector3(3.0, 0, 0));
+}
+
+// What a sink was offered.
+struct RecordingSink final : FragmentSink {
+  void Offer(const net::ModelFragmentView& fragment) override {
+    offered.push_back({fragment.version, fragment.index, fragment.count,
+                       std::string(fragment.data.begin(), fragment.data.end())});
+  }
+  struct Seen {
+    uint64_t version;
+    uint32_t index;
+    uint32_t count;
+    std::string data;
+  };
+  std::vector<Seen> offered;
+};
+
+// Model fragments reach the sink from every authentic command of the session (a
+// duplicate's or a watchdog command's too), never from a forged one.
+TEST_F(LinkFixture, ModelFragmentsGoToTheSink) {
+  RecordingSink sink;
+  link.set_fragment_sink(&sink);
+  const std::array<uint8_t, 4> data{'a', 'b', 'c', 'd'};
+  const uint64_t sequence = SendState();
+  server.SendCommand(sequence, key, kSession, 1.5, {7, 1, 3, data});
+  ASSERT_TRUE(AwaitOne(set));
+  server.SendCommand(sequence, key, kSession, 1.5, {7, 2, 3, data});  // a duplicate: stale
+  server.SendCommand(0, key, kSession, 1.5, {7, 0, 3, data});         // the server's watchdog
+  DrainUntilCounted(link, &LinkCounters::stale, 2);
+  server.SendCommand(sequence, TestKey(10), kSession, 1.5, {8, 0, 1, data});  // forged
+  server.SendCommand(sequence, key, kSession + 1, 1.5, {9, 0, 1, data});      // another session's
+  DrainUntilCounted(link, &LinkCounters::bad, 2);
+  ASSERT_EQ(sink.offered.size(), 3u);
+  EXPECT_EQ(sink.offered[0].index, 1u);
+  EXPECT_EQ(sink.offered[1].index, 2u);
+  EXPECT_EQ(sink.offered[2].index, 0u);
+  for (const RecordingSink::Seen& seen : sink.offered) {
+    EXPECT_EQ(seen.version, 7u);
+    EXPECT_EQ(seen.count, 3u);
+    EXPECT_EQ(seen.data, "abcd");
+  }
+  // the command kept for the loop carries no view into the receive buffer
+  EXPECT_EQ(link.command().model.count, 0u);
+  EXPECT_EQ(link.newest().model.count, 0u);
 }
 
 // Nothing comes: the wait ends at its deadline with nothing answered.

@@ -164,3 +164,13 @@ def test_next_command_returns_watchdog_commands_uncounted(realtime_server):
         assert device.next_command(timeout_s=0.05) is None
     assert device.counters.stale == 0 and device.counters.lost == 0
     assert len(device.rtt_ns) == 1
+
+
+def test_a_command_carrying_a_model_fragment_is_received_whole(realtime_server):
+    # over a state's 512 bytes: a receive sized for states would cut it and fail its tag
+    fragment = pb.ModelFragment(version=1, index=0, count=1, data=bytes(1024))
+    server = realtime_server(lambda s: [command_for(s, force=pb.Vec3(z=1), model=fragment)])
+    with DeviceSession(server.info()) as device:
+        command = device.exchange((0, 0, 0), timeout_s=1)
+    assert command is not None and command.force[2] == 1
+    assert device.counters.bad == 0 and device.counters.received == 1

@@ -368,7 +368,7 @@ TEST(ControlService, OpenSessionChecksTheHandshake) {
   EXPECT_NE(opened.session_opened().session_id(), 0u);
   EXPECT_EQ(opened.session_opened().session_key().size(), kSessionKeySize);
   EXPECT_EQ(opened.session_opened().udp_endpoint(), harness.service.options().udp_endpoint);
-  EXPECT_EQ(opened.session_opened().max_datagram(), kMaxDatagramSize);
+  EXPECT_EQ(opened.session_opened().max_datagram(), kMaxStateSize);
   const int slot = harness.sessions.FindById(opened.session_opened().session_id());
   ASSERT_GE(slot, 0);
   EXPECT_EQ(harness.sessions.slot(slot).state.load(), SlotState::kWaiting);

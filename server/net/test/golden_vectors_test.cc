@@ -14,6 +14,8 @@
 
 #include "hapticd/v1/hapticd.pb.h"
 #include "server/net/datagram_codec.h"
+#include "server/net/model_codec.h"
+#include "server/net/proto_convert.h"
 
 namespace hapticd::net {
 namespace {
@@ -93,13 +95,62 @@ TEST(GoldenVectors, DatagramsMatchTheCodec) {
     } else {
       DeviceCommandSample command;
       ASSERT_EQ(codec.ParseCommand(bytes, command), DatagramError::kNone) << name;
+      // the hand-read fragment is the one protobuf reads
+      v1::DeviceCommand message;
+      ASSERT_TRUE(message.ParseFromString(FromHex(vector["hex"].GetString()))) << name;
+      EXPECT_EQ(command.model.version, message.model().version()) << name;
+      EXPECT_EQ(command.model.index, message.model().index()) << name;
+      EXPECT_EQ(command.model.count, message.model().count()) << name;
+      EXPECT_EQ(std::string(command.model.data.begin(), command.model.data.end()), message.model().data()) << name;
       size = codec.EncodeCommand(command, key, encoded);
     }
     EXPECT_EQ(ToHex(std::string(encoded.begin(), encoded.begin() + size)), vector["datagram_hex"].GetString())
         << name;
     ++checked;
   }
-  EXPECT_EQ(checked, 3);
+  EXPECT_EQ(checked, 5);
+}
+
+// The vectors a local model session sends: the command's fragment checked above, the
+// model itself through its codec, and the session's request.
+const rapidjson::Value& FindVector(const rapidjson::Document& document, const std::string& name) {
+  for (const auto& vector : document["vectors"].GetArray()) {
+    if (vector["name"].GetString() == name) return vector;
+  }
+  ADD_FAILURE() << "no vector named " << name;
+  static const rapidjson::Value kNone;
+  return kNone;
+}
+
+TEST(GoldenVectors, TheLocalModelMatchesItsCodec) {
+  const rapidjson::Document document = LoadVectors();
+  ASSERT_TRUE(document.IsObject());
+  const auto& vector = FindVector(document, "local_model");
+  ASSERT_TRUE(vector.IsObject());
+  const std::string bytes = FromHex(vector["hex"].GetString());
+  const remote::LocalModel model =
+      DecodeLocalModel({reinterpret_cast<const uint8_t*>(bytes.data()), bytes.size()});
+  EXPECT_EQ(model.version, 2u);
+  EXPECT_EQ(model.left_out, 1);
+  ASSERT_EQ(model.objects.size(), 1u);
+  EXPECT_EQ(model.objects[0].name, "table");
+  EXPECT_TRUE(std::holds_alternative<scene::BoxShape>(model.objects[0].shape));
+  EXPECT_EQ(model.objects[0].material.stiffness, 2000);
+  // the server's encoder writes exactly these bytes for it
+  EXPECT_EQ(ToHex(EncodeLocalModel(model)), vector["hex"].GetString());
+}
+
+TEST(GoldenVectors, TheLocalModelSessionAsksForOne) {
+  const rapidjson::Document document = LoadVectors();
+  ASSERT_TRUE(document.IsObject());
+  const auto& vector = FindVector(document, "open_session_local_model");
+  ASSERT_TRUE(vector.IsObject());
+  v1::Request request;
+  ASSERT_TRUE(request.ParseFromString(FromHex(vector["hex"].GetString())));
+  EXPECT_TRUE(ReadLocalModelMode(request.open_session()));
+  Vector3 start_W;
+  double timeout_s = 0;
+  EXPECT_NO_THROW(ReadSessionRequest(request.open_session(), start_W, timeout_s));
 }
 
 }  // namespace

@@ -44,7 +44,9 @@ TEST(LocalModelTest, AModelHoldsWhatIsNearAsPrimitivesAndAPatch) {
   EXPECT_EQ(model.version, 3u);
   EXPECT_EQ(model.t_s, 1.5);
   EXPECT_EQ(model.left_out, 0);
-  ASSERT_EQ(model.objects.size(), 3u);  // ball, box and the plane (unbounded); not "far"
+  // ball and box; not "far", nor the floor 0.3 m below (unbounded, but its solid is
+  // beyond the ball)
+  ASSERT_EQ(model.objects.size(), 2u);
   EXPECT_EQ(model.objects[0].name, "ball");
   const auto& patch = std::get<scene::MeshSpec>(model.objects[0].shape);
   EXPECT_GT(patch.triangles.size(), 50u);
@@ -52,7 +54,10 @@ TEST(LocalModelTest, AModelHoldsWhatIsNearAsPrimitivesAndAPatch) {
   for (const Vector3& v : patch.vertices) EXPECT_LE((v - c).norm(), 0.02 + 0.005);
   EXPECT_EQ(model.objects[1].name, "box");
   EXPECT_TRUE(std::holds_alternative<scene::BoxShape>(model.objects[1].shape));
-  EXPECT_EQ(model.objects[2].name, "floor");
+  // the floor is in a model whose ball reaches its face
+  const LocalModel low = CutLocalModel(*scene, Vector3(0.5, 0, -0.19), 0.02, 4, 1.5);
+  ASSERT_EQ(low.objects.size(), 1u);
+  EXPECT_EQ(low.objects[0].name, "floor");
   EXPECT_EQ(model.objects[0].material.stiffness, 3000);
 }
 

@@ -294,6 +294,9 @@ def session_telemetry_from(message: pb.SessionTelemetry) -> SessionTelemetry:
         passivity_activations=message.passivity_activations,
         tick_us_max=message.tick_us_max,
         tick_overruns=message.tick_overruns,
+        model_version=message.model_version,
+        device_avatar=array3(message.device_avatar) if message.HasField("device_avatar") else None,
+        model_fragments_sent=message.model_fragments_sent,
     )
 
 

@@ -1,6 +1,7 @@
 """Realtime-channel datagrams, sans I/O: the protobuf encoding of one DeviceState or
 DeviceCommand followed by a 16-byte tag, keyed BLAKE2b (digest 16 bytes) of the encoded
-message under the session's 32-byte key. A datagram is at most 512 bytes.
+message under the session's 32-byte key. A state (device to server) is at most 512 bytes;
+a command (server to device) at most 1400, since it may carry a fragment of a local model.
 
 encode_* raise LocalError (the caller built something unsendable); decode_* raise
 ProtocolError naming what is wrong with what arrived (too short, too long, a tag that
@@ -20,9 +21,19 @@ from hapticd.v1 import hapticd_pb2 as pb
 
 TAG_BYTES = 16
 KEY_BYTES = 32
-MAX_DATAGRAM_BYTES = 512
+# Whole datagrams, tag included. A command may carry a local model's fragment (up to
+# 1024 bytes of it), so it gets the larger limit, still under Ethernet's 1472-byte UDP
+# payload; the server drops a state over 512 bytes as oversized.
+MAX_STATE_BYTES = 512
+MAX_COMMAND_BYTES = 1400
 
 MessageT = TypeVar("MessageT", bound=Message)
+
+
+def max_datagram_bytes(message_type: type[Message]) -> int:
+    """The size limit of a datagram carrying message_type: MAX_COMMAND_BYTES for a
+    DeviceCommand, MAX_STATE_BYTES for anything else."""
+    return MAX_COMMAND_BYTES if message_type is pb.DeviceCommand else MAX_STATE_BYTES
 
 
 def compute_tag(key: bytes, payload: bytes) -> bytes:
@@ -37,27 +48,28 @@ def _check_key(key: bytes) -> None:
 
 def encode_datagram(message: Message, key: bytes) -> bytes:
     """message's encoding followed by its tag. Raises LocalError for a key that is not
-    32 bytes or a datagram over 512 bytes."""
+    32 bytes or a datagram over its limit (max_datagram_bytes)."""
     _check_key(key)
     payload = message.SerializeToString()
-    if len(payload) + TAG_BYTES > MAX_DATAGRAM_BYTES:
+    limit = max_datagram_bytes(type(message))
+    if len(payload) + TAG_BYTES > limit:
         raise LocalError(
             f"{message.DESCRIPTOR.name} datagram would be {len(payload) + TAG_BYTES} bytes; "
-            f"the limit is {MAX_DATAGRAM_BYTES}"
+            f"the limit is {limit}"
         )
     return payload + compute_tag(key, payload)
 
 
 def decode_datagram(datagram: bytes, key: bytes, message_type: type[MessageT]) -> MessageT:
     """The message_type a datagram carries, after its tag verifies (constant-time
-    compare). Raises ProtocolError naming the problem: under 16 or over 512 bytes, a
-    tag mismatch, bytes that do not parse as message_type."""
+    compare). Raises ProtocolError naming the problem: under 16 bytes or over
+    message_type's limit (max_datagram_bytes), a tag mismatch, bytes that do not parse
+    as message_type."""
     _check_key(key)
     name = message_type.DESCRIPTOR.name
-    if len(datagram) > MAX_DATAGRAM_BYTES:
-        raise ProtocolError(
-            f"{name} datagram is {len(datagram)} bytes; the limit is {MAX_DATAGRAM_BYTES}"
-        )
+    limit = max_datagram_bytes(message_type)
+    if len(datagram) > limit:
+        raise ProtocolError(f"{name} datagram is {len(datagram)} bytes; the limit is {limit}")
     if len(datagram) < TAG_BYTES:
         raise ProtocolError(
             f"{name} datagram is {len(datagram)} bytes; it needs at least {TAG_BYTES} for its tag"

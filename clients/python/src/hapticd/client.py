@@ -50,6 +50,7 @@ from hapticd.v1 import hapticd_pb2 as pb
 PROTOCOL_VERSION = 1
 DEVICE_TYPES = {"impedance": pb.DEVICE_TYPE_IMPEDANCE, "admittance": pb.DEVICE_TYPE_ADMITTANCE}
 AVATARS = {"point": pb.AVATAR_TYPE_POINT, "sphere": pb.AVATAR_TYPE_SPHERE}
+REMOTE_MODES = {"direct": pb.REMOTE_MODE_DIRECT, "local_model": pb.REMOTE_MODE_LOCAL_MODEL}
 FORCE_METHODS = {
     "default": pb.FORCE_METHOD_DEFAULT,
     "penalty": pb.FORCE_METHOD_PENALTY,
@@ -286,6 +287,7 @@ class Client(ClosesOnExit, SceneEditor):
         virtual_damping: float = 0.0,
         start: ArrayLike = (0, 0, 0),
         session_timeout_s: float = 0.0,
+        remote_mode: str = "direct",
         timeout_s: float | None = None,
     ) -> SessionInfo:
         """Opens a device session (the capability handshake). device_type "impedance"
@@ -296,12 +298,21 @@ class Client(ClosesOnExit, SceneEditor):
         or "finger_proxy"; virtual_mass (kg, in [1e-3, 1e3]) and virtual_damping (N·s/m,
         in [0, 1e5]) for admittance (0: the server's 1 kg, 20 N·s/m); start: the
         device's position now; session_timeout_s: reclaim after this long without states
-        (in [0.15, 3600]; 0: 2 s). The ranges are _validate.RANGES, the server's."""
+        (in [0.15, 3600]; 0: 2 s); remote_mode "direct" (the device renders each
+        command's force) or "local_model" (impedance only: the commands carry models of
+        the scene near the device, which renders its force itself: DeviceSession.render).
+        The ranges are _validate.RANGES, the server's."""
         if degrees_of_freedom not in (3, 6):
             raise LocalError(f"degrees_of_freedom is {degrees_of_freedom!r}; it must be 3 or 6")
         check.choice(device_type, "device_type", tuple(DEVICE_TYPES))
         check.choice(avatar, "avatar", tuple(AVATARS))
         check.choice(method, "method", tuple(FORCE_METHODS))
+        check.choice(remote_mode, "remote_mode", tuple(REMOTE_MODES))
+        if remote_mode == "local_model" and device_type != "impedance":
+            raise LocalError(
+                "remote_mode is 'local_model' for an admittance device; a local model is for "
+                "impedance devices"
+            )
         if avatar == "sphere":
             radius = check.limited(avatar_radius, "avatar_radius", "avatar_radius")
         else:
@@ -329,6 +340,7 @@ class Client(ClosesOnExit, SceneEditor):
             timeout_s=check.limited_or_zero(
                 session_timeout_s, "session_timeout_s", "session_timeout_s", "the server's 2 s"
             ),
+            remote_mode=REMOTE_MODES[remote_mode],
         )
         opened = _body(
             self._call("open_session", message, timeout_s), "session_opened", pb.SessionOpened
@@ -353,6 +365,8 @@ class Client(ClosesOnExit, SceneEditor):
             device_type=device_type,
             rate_hz=rate,
             close_session=functools.partial(self._close_own_session, opened.session_id),
+            remote_mode=remote_mode,
+            open_request=message.SerializeToString(),
         )
 
     def close_session(

@@ -15,6 +15,13 @@ command does not come in time is lost. An impedance device reports in held_force
 force it rendered since its previous state (by default the last command's force); an
 admittance device reports the person's force in sensed_force and goes where the
 command's position says.
+
+A local-model session (Client.open_session(remote_mode="local_model")) renders its
+force on the device: the commands carry fragments of models of the scene near the
+device, which every authentic command of the session hands to a LocalRenderer
+(local_model.py, the server's own renderer), and render() gives each tick's force from
+the newest model, whether or not a command came. Its states tell the server the newest
+model held and the avatar on it, about which the server cuts the next.
 """
 
 from __future__ import annotations
@@ -28,9 +35,10 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from hapticd._closing import ClosesOnExit
-from hapticd._datagram import MAX_DATAGRAM_BYTES, decode_command, encode_state
+from hapticd._datagram import MAX_COMMAND_BYTES, decode_command, encode_state
 from hapticd._validate import FloatArray
 from hapticd.errors import ConnectionClosed, LocalError, ProtocolError, SessionEnded
+from hapticd.local_model import LocalForce, LocalRenderer
 from hapticd.results import SessionInfo
 from hapticd.v1 import hapticd_pb2 as pb
 
@@ -124,6 +132,12 @@ class DeviceSession(ClosesOnExit):
         self._sequence = 0
         self._last_rtt_us = 0
         self._state = pb.DeviceState(session_id=info.session_id)
+        # local model: the device's own renderer, on the session's clock from now
+        self.local: LocalRenderer | None = None
+        if info.remote_mode == "local_model":
+            self.local = LocalRenderer(info.open_request)
+        self._opened_ns = time.monotonic_ns()
+        self._rendered = np.zeros(3)
         family, kind, proto, _, address = socket.getaddrinfo(
             info.udp_host, info.udp_port, type=socket.SOCK_DGRAM
         )[0]
@@ -142,6 +156,8 @@ class DeviceSession(ClosesOnExit):
             return
         self._socket.close()
         self._socket = None
+        if self.local is not None:
+            self.local.close()
         if self.info.close_session is not None:
             self.info.close_session()
 
@@ -168,7 +184,8 @@ class DeviceSession(ClosesOnExit):
         buttons (bit i: button i), for impedance the force held since the previous state
         (N; default the last command's force), for admittance the person's force at the
         handle (N, required). Returns its sequence number. LocalError for a non-finite
-        value or a missing sensed_force."""
+        value or a missing sensed_force. A local-model device's held force defaults to
+        the last one render() gave, and its state carries the model it holds."""
         sock = self._live_socket()
         state = self._state
         _set_vec3(state.position, position, "position")
@@ -182,9 +199,14 @@ class DeviceSession(ClosesOnExit):
             _set_vec3(state.sensed_force, sensed_force, "sensed_force")
         else:
             held = held_force
-            if held is None:
+            if held is None and self.local is not None:
+                held = self._rendered
+            elif held is None:
                 held = self.last_command.force if self.last_command else (0.0, 0.0, 0.0)
             _set_vec3(state.held_force, held, "held_force")
+        if self.local is not None:
+            state.model_version = self.local.model_version
+            _set_vec3(state.avatar, self.local.avatar, "avatar")
         self._sequence += 1
         state.sequence = self._sequence
         state.rtt_us = self._last_rtt_us
@@ -207,7 +229,8 @@ class DeviceSession(ClosesOnExit):
                 if remaining <= 0:
                     return None
                 sock.settimeout(remaining)
-                datagram = sock.recv(MAX_DATAGRAM_BYTES + 1)
+                # one byte over the limit, so that an oversized command is seen, not cut
+                datagram = sock.recv(MAX_COMMAND_BYTES + 1)
             except TimeoutError:
                 return None
             except OSError as exc:
@@ -221,6 +244,11 @@ class DeviceSession(ClosesOnExit):
             if message.session_id != self.info.session_id:
                 self.counters.bad += 1
                 continue
+            if self.local is not None and message.HasField("model"):
+                try:
+                    self.local.offer(message.model, self.session_time_s())
+                except ProtocolError:
+                    pass  # counted in local.models_rejected; the model held stays
             return message, received_ns
 
     def receive_command(self, sequence: int, timeout_s: float) -> Command | None:
@@ -270,6 +298,23 @@ class DeviceSession(ClosesOnExit):
         command = _command(message, rtt_ns)
         self.last_command = command
         return command
+
+    def session_time_s(self) -> float:
+        """Seconds since the session opened (here: the server's clock is a control reply
+        ahead), the clock a local model's kinematic objects move on."""
+        return (time.monotonic_ns() - self._opened_ns) * 1e-9
+
+    def render(
+        self, position: ArrayLike, velocity: ArrayLike = (0.0, 0.0, 0.0), *, dt: float
+    ) -> LocalForce:
+        """A local-model session's tick of dt s: the force to render now, from the newest
+        model (free space before the first), the handle at position (m) moving at
+        velocity (m/s). LocalError for a direct session."""
+        if self.local is None:
+            raise LocalError("render() is for a local-model session; this one is direct")
+        rendered = self.local.tick(position, velocity, self._rendered, dt)
+        self._rendered = rendered.force
+        return rendered
 
     def exchange(
         self,

@@ -118,7 +118,9 @@ class SessionInfo:
     handshake asked for (device type "impedance" or "admittance", the state rate).
     close_session, set by the Client that opened it, closes the server's session; the
     DeviceSession made from this info calls it when it closes (None: nothing to close
-    from here, e.g. an info built by hand)."""
+    from here, e.g. an info built by hand). remote_mode is "direct" or "local_model";
+    open_request the encoded OpenSession the session was opened with (a local-model
+    device renders with the same settings)."""
 
     session_id: int
     key: bytes = field(repr=False)
@@ -128,6 +130,8 @@ class SessionInfo:
     device_type: str
     rate_hz: float
     close_session: Callable[[], None] | None = field(default=None, repr=False, compare=False)
+    remote_mode: str = "direct"
+    open_request: bytes = field(default=b"", repr=False, compare=False)
 
 
 @dataclass(frozen=True)
@@ -159,7 +163,10 @@ class SessionTelemetry:
     "timed_out", "closed"), the last force (N), device and avatar positions (m), the
     device's reported round trip (µs), and its counters. tick_us_max is the longest
     render tick since the previous sample; tick_overruns counts the ticks that spent the
-    server's work budget (--tick-work-budget)."""
+    server's work budget (--tick-work-budget). A local-model session (the device renders
+    its own force from models of the scene the server sends) also reports the newest
+    model the device holds (model_version, 0: none yet), the device's own avatar on it
+    (device_avatar, m) and the model fragments the server sent."""
 
     session_id: int
     state: str
@@ -182,6 +189,9 @@ class SessionTelemetry:
     passivity_activations: int
     tick_us_max: float
     tick_overruns: int
+    model_version: int
+    device_avatar: FloatArray | None
+    model_fragments_sent: int
 
 
 @dataclass(frozen=True)
