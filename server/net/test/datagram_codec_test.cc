@@ -351,13 +351,13 @@ TEST(DatagramCodec, MalformedFragmentsAreRefused) {
   // data (22 03 ...) around what is tested.
   const std::string count = {'\x1d', 1, 0, 0, 0};
   const std::string data = {'\x22', 3, 'a', 'b', 'c'};
-  EXPECT_EQ(codec.ParseCommand(CommandWithFragmentBytes(FragmentField(count + data)), command),
-            DatagramError::kNone);
+  // the parsed fragment's data points into its datagram: kept alive while it is read
+  const std::vector<uint8_t> plain = CommandWithFragmentBytes(FragmentField(count + data));
+  EXPECT_EQ(codec.ParseCommand(plain, command), DatagramError::kNone);
   EXPECT_EQ(AsString(command.model.data), "abc");
   // a field the fragment does not know is skipped
-  EXPECT_EQ(codec.ParseCommand(CommandWithFragmentBytes(FragmentField(count + std::string{'\x28', 5} + data)),
-                               command),
-            DatagramError::kNone);
+  const std::vector<uint8_t> unknown = CommandWithFragmentBytes(FragmentField(count + std::string{'\x28', 5} + data));
+  EXPECT_EQ(codec.ParseCommand(unknown, command), DatagramError::kNone);
   EXPECT_EQ(AsString(command.model.data), "abc");
   // the fragment's field claims more bytes than the message has
   std::string cut = FragmentField(count + data);
