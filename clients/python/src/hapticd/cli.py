@@ -5,6 +5,8 @@
     scene clear          remove every object
     demo                 a simulated hand strokes the scene over UDP; one JSON line
     bench latency        round-trip percentiles of a still device; one JSON line
+    ur-bridge            a Universal Robots arm as an admittance device; one JSON line
+                         at exit (hapticd.ur_bridge; python -m hapticd ur-bridge --help)
 
 Every command takes --server HOST:PORT (default $HAPTICD_SERVER, else 127.0.0.1:7460,
 the server's default). Options are spelled out in full; an unknown one is refused.
@@ -27,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from hapticd import ur_bridge
 from hapticd._connection import parse_address
 from hapticd.client import Client, connect
 from hapticd.demo import Trace, plot_trace, run_demo, run_latency_bench
@@ -125,6 +128,16 @@ def build_parser() -> argparse.ArgumentParser:
     latency.add_argument("--seconds", type=_positive, default=5.0, help="how long (s)")
     latency.add_argument("--rate-hz", type=_positive, default=1000.0, help="the device's rate")
     _server_options(latency)
+
+    bridge = commands.add_parser(
+        "ur-bridge",
+        help="drive a Universal Robots arm as an admittance device",
+        description=ur_bridge.__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        allow_abbrev=False,
+    )
+    ur_bridge.add_arguments(bridge)
+    _server_options(bridge)
     return parser
 
 
@@ -240,6 +253,7 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
     """Runs the parsed command; returns the JSON it prints. Input files are read, and a
     plot's directory checked, before connecting."""
     specs = _read_objects(args) if args.command == "scene" and args.scene_command == "load" else []
+    bridge = ur_bridge.options_from(args) if args.command == "ur-bridge" else None
     if args.command == "demo" and args.plot and not pathlib.Path(args.plot).parent.is_dir():
         raise LocalError(f"--plot {args.plot!r}: its directory does not exist")
     with _connect(args) as client:
@@ -256,6 +270,8 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
                 plot_trace(trace, args.plot)
                 summary["plot"] = args.plot
             return summary
+        if bridge is not None:
+            return ur_bridge.run_bridge(bridge, client)
         return run_latency_bench(client, args.seconds, rate_hz=args.rate_hz)
 
 
