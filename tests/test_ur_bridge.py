@@ -4,14 +4,10 @@ process) and a real hapticd server whose scene has a wall 3 cm under the tool.
 
 The simulator's trace stamps every period and event with this machine's monotonic clock,
 which the bridge's summary shares (its stop events), so "stopped within 10 ms of
-noticing" is measured across the two processes. The simulator runs at a real-time
-priority where the machine grants one: a 500 Hz Python controller starved by a loaded
-machine would look stalled to the bridge, which is the point of the bridge's check, not
-a test of it."""
+noticing" is measured across the two processes. The simulator and the bridge run at a
+real-time priority where the machine grants one (ur_sim/launcher.py says why)."""
 
-import contextlib
 import json
-import os
 import pathlib
 import signal
 import subprocess
@@ -20,6 +16,7 @@ import time
 
 import pytest
 from server_process import ServerProcess, running_server
+from ur_sim.launcher import realtime_prefix, rows_of, running_simulator
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
 START = (0.4, -0.1, 0.3)  # the simulator's TCP at start (its default), m
@@ -32,67 +29,12 @@ SCENE = {"scene": {"objects": [{
 # the simulator's external sensor (ur_sim/modbus_servers.py): Fx Fy Fz as int32, mN, base frame
 SIM_SENSOR_MAP = {"function": "holding", "device_id": 0, "frame": "base", "axes": [
     {"address": a, "type": "int32", "scale": 0.001} for a in (0, 2, 4)]}  # fmt: skip
-_next_host = iter(range(10, 250))
-
-
-def realtime_prefix():
-    """chrt -f 10 where this machine grants SCHED_FIFO, else nothing."""
-    try:
-        probe = subprocess.run(["chrt", "-f", "10", "true"], capture_output=True, timeout=5)
-    except (OSError, subprocess.TimeoutExpired):
-        return []
-    return ["chrt", "-f", "10"] if probe.returncode == 0 else []
-
-
-class Simulator:
-    """A ur_sim process on a loopback address of its own (ur_rtde's ports are fixed)."""
-
-    def __init__(self, *args):
-        self.host = f"127.0.1.{next(_next_host)}"
-        env = {**os.environ, "PYTHONPATH": str(REPO / "tests")}
-        self.process = subprocess.Popen(
-            [*realtime_prefix(), sys.executable, "-m", "ur_sim", "--host", self.host,
-             "--control-port", "0", "--ur-modbus-port", "0", "--ft-modbus-port", "0", *args],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
-        )  # fmt: skip
-        line = self.process.stdout.readline()
-        assert line, f"ur_sim did not start: {self.process.stderr.read()}"
-        self.endpoints = json.loads(line)
-        import socket
-
-        self._control = socket.create_connection((self.host, self.endpoints["control"]), timeout=10)
-        self._reader = self._control.makefile("r")
-
-    def ask(self, **request):
-        self._control.sendall((json.dumps(request) + "\n").encode())
-        answer = json.loads(self._reader.readline())
-        assert answer["ok"], answer
-        return answer
-
-    def state(self):
-        return self.ask(cmd="state")
-
-    def trace(self, since=None):
-        return self.ask(cmd="trace", since_host_time=since)
-
-    def close(self):
-        with contextlib.suppress(OSError):
-            self._control.close()
-        if self.process.poll() is None:
-            self.process.send_signal(signal.SIGCONT)
-            self.process.terminate()
-            try:
-                self.process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
 
 
 @pytest.fixture
 def sim():
-    simulator = Simulator()
-    yield simulator
-    simulator.close()
+    with running_simulator() as simulator:
+        yield simulator
 
 
 def wall_scene(tmp_path):
@@ -139,11 +81,6 @@ def finish(bridge, timeout_s=30.0):
     out, err = bridge.communicate(timeout=timeout_s)
     assert bridge.returncode == 0, err
     return json.loads(out.strip().splitlines()[-1])
-
-
-def rows_of(trace):
-    fields = trace["fields"]
-    return [dict(zip(fields, row, strict=True)) for row in trace["rows"]]
 
 
 def events_named(trace, name):
@@ -257,14 +194,11 @@ def test_a_protective_stop_is_reported_and_not_resumed(sim, wall_server):
      ("emergency_stop", "emergency")],
 )  # fmt: skip
 def test_it_refuses_a_robot_that_cannot_be_servoed(wall_server, mode, says):
-    simulator = Simulator("--robot-mode", mode)
-    try:
+    with running_simulator("--robot-mode", mode) as simulator:
         bridge = start_bridge(simulator, wall_server, seconds=2.0)
         out, err = bridge.communicate(timeout=30)
         assert bridge.returncode == 1 and says in err, err
         assert simulator.state()["counters"]["servoL"] == 0
-    finally:
-        simulator.close()
 
 
 def test_bad_flags_are_refused_by_name(wall_server, sim):
@@ -296,16 +230,13 @@ def test_the_modbus_force_source_moves_the_arm_like_rtde(wall_server, tmp_path):
     map_file.write_text(json.dumps(SIM_SENSOR_MAP))
     paths = {}
     for source in ("rtde", "modbus"):
-        simulator = Simulator()
-        try:
+        with running_simulator() as simulator:
             flags = []
             if source == "modbus":
                 modbus = f"{simulator.host}:{simulator.endpoints['ft_modbus']}"
                 flags = ["--force-source", "modbus", "--modbus", modbus]
                 flags += ["--modbus-map", str(map_file)]
             paths[source] = z_path(simulator, wall_server, *flags)
-        finally:
-            simulator.close()
     # the same motion: both at the speed cap to the wall, there at the same time (within
     # the bridge's scheduling on a loaded machine), resting at the same height
     arrivals = [next(t for t, z in path if z <= WALL_TOP_Z + 0.001) for path in paths.values()]

@@ -9,15 +9,12 @@ import json
 import math
 import os
 import pathlib
-import selectors
 import signal
 import socket
 import struct
 import subprocess
 import sys
-import tempfile
 import time
-from contextlib import contextmanager
 
 import dashboard_client
 import pytest
@@ -31,109 +28,10 @@ sys.path.insert(0, str(TESTS))
 
 from ur_sim import arm as sim_arm  # noqa: E402
 from ur_sim import rtde_protocol as rp  # noqa: E402
+from ur_sim.launcher import running_simulator as simulator  # noqa: E402
 from ur_sim.script_server import ScriptAssembler  # noqa: E402
 
 START_POSE = (0.4, -0.1, 0.3, 0.0, 3.1416, 0.0)
-START_TIMEOUT_S = 15
-
-
-def _free_loopback_address() -> str:
-    """A 127.0.0.x address whose RTDE, dashboard and script ports are all free."""
-    for last in range(2 + os.getpid() % 50, 254):
-        address = f"127.0.0.{last}"
-        probes = []
-        try:
-            for port in (30004, 29999, 30003, 30002):
-                probe = socket.socket()
-                probes.append(probe)
-                probe.bind((address, port))
-            return address
-        except OSError:
-            continue
-        finally:
-            for probe in probes:
-                probe.close()
-    raise RuntimeError("no free loopback address for a simulator")
-
-
-class Sim:
-    """A running simulator process: host, its endpoints, and its control channel."""
-
-    def __init__(self, process: subprocess.Popen, endpoints: dict) -> None:
-        self.process = process
-        self.endpoints = endpoints
-        self.host = endpoints["host"]
-        self._control = socket.create_connection((self.host, endpoints["control"]), timeout=10)
-        self._reader = self._control.makefile("r")
-
-    def ctl(self, **request) -> dict:
-        self._control.sendall((json.dumps(request) + "\n").encode())
-        return json.loads(self._reader.readline())
-
-    def state(self) -> dict:
-        return self.ctl(cmd="state")
-
-    def dashboard(self, *commands: str) -> list[str]:
-        """Answers to dashboard commands over a plain socket (greeting checked)."""
-        with (
-            socket.create_connection((self.host, 29999), timeout=5) as sock,
-            sock.makefile("r") as reader,
-        ):
-            assert reader.readline() == "Connected: Universal Robots Dashboard Server\n"
-            answers = []
-            for command in commands:
-                sock.sendall((command + "\n").encode())
-                answers.append(reader.readline().rstrip("\n"))
-            return answers
-
-    def wait_for(self, predicate, timeout_s: float = 2.0, what: str = "condition") -> dict:
-        deadline = time.monotonic() + timeout_s
-        while True:
-            state = self.state()
-            if predicate(state):
-                return state
-            assert time.monotonic() < deadline, f"timed out waiting for {what}: {state}"
-            time.sleep(0.01)
-
-    def close(self) -> None:
-        self._reader.close()
-        self._control.close()
-
-
-@contextmanager
-def simulator(*args: str):
-    """Start `python -m ur_sim` on a free loopback address; stop it with SIGTERM, which
-    must end it with exit status 0."""
-    host = _free_loopback_address()
-    env = dict(os.environ, PYTHONPATH=str(TESTS))
-    with tempfile.TemporaryFile() as stderr:
-        process = subprocess.Popen(
-            [sys.executable, "-m", "ur_sim", "--host", host, "--seed", "7", *args],
-            stdout=subprocess.PIPE,
-            stderr=stderr,
-            env=env,
-            text=True,
-        )
-        try:
-            with selectors.DefaultSelector() as selector:
-                selector.register(process.stdout, selectors.EVENT_READ)
-                ready = selector.select(timeout=START_TIMEOUT_S)
-            assert ready, f"the simulator did not start within {START_TIMEOUT_S} s"
-            line = process.stdout.readline()
-            assert line, f"the simulator exited: {process.wait()}"
-            sim = Sim(process, json.loads(line))
-            try:
-                yield sim
-            finally:
-                sim.close()
-        finally:
-            process.send_signal(signal.SIGCONT)
-            process.terminate()
-            rc = process.wait(timeout=10)
-            stderr.seek(0)
-            log = stderr.read().decode(errors="replace")
-        assert rc == 0, f"simulator exit status {rc}; stderr:\n{log}"
-        assert "Traceback" not in log, log
 
 
 def _servo_for(control, target, seconds: float, lookahead: float = 0.1, kick: bool = False) -> int:
