@@ -245,3 +245,60 @@ def test_the_modbus_force_source_moves_the_arm_like_rtde(wall_server, tmp_path):
         heights = [min(path, key=lambda p, t=t: abs(p[0] - t))[1] for path in paths.values()]
         assert abs(heights[0] - heights[1]) <= MAX_SPEED * 0.040, (t, heights)
     assert abs(paths["rtde"][-1][1] - paths["modbus"][-1][1]) <= 0.0005
+
+
+def test_sigterm_stops_the_arm_and_the_bridge_exits_with_the_reason(sim, wall_server):
+    bridge = start_bridge(sim, wall_server, seconds=20.0)
+    wait_servoing(sim, bridge)
+    sim.ask(cmd="person", force=[20, 0, 0])
+    time.sleep(0.3)
+    bridge.send_signal(signal.SIGTERM)
+    summary = finish(bridge)
+    assert summary["exit_reason"] == "signal" and summary["stops"] == 1
+    time.sleep(0.2)
+    assert sim.state()["speed_norm"] < 1e-3
+
+
+def test_a_killed_bridge_is_stopped_by_the_scripts_watchdog(sim, wall_server):
+    bridge = start_bridge(sim, wall_server, seconds=20.0)
+    wait_servoing(sim, bridge)
+    sim.ask(cmd="person", force=[20, 0, 0])
+    time.sleep(0.3)
+    killed = time.monotonic()
+    bridge.kill()
+    bridge.wait()
+    # the watchdog's 0.1 s, then the arm at rest (it goes no further than its last target)
+    state = sim.wait_for(lambda s: s["speed_norm"] < 1e-3, timeout_s=2.0, what="the arm at rest")
+    trace = sim.trace(killed)
+    assert state["counters"]["watchdog_trips"] == 1, trace["events"][-5:]
+    trip = next(e for e in trace["events"] if "watchdog" in json.dumps(e))
+    assert trip["host_time"] - killed <= 0.1 + 0.05
+
+
+def test_the_arm_moves_only_while_the_enable_input_is_held(sim, wall_server):
+    ur_modbus = f"{sim.host}:{sim.endpoints['ur_modbus']}"
+    bridge = start_bridge(sim, wall_server, "--enable-input", "0", "--ur-modbus", ur_modbus,
+                          seconds=4.0)  # fmt: skip
+    wait_servoing(sim, bridge)
+    since = sim.ask(cmd="ping")["host_time"]
+    sim.ask(cmd="person", force=[20, 0, 0])
+    time.sleep(1.0)
+    held_from = sim.ask(cmd="ping")["host_time"]
+    sim.ask(cmd="enable", on=True)
+    summary = finish(bridge)
+    rows = rows_of(sim.trace(since))
+    before = [r for r in rows if r["host_time"] < held_from]
+    assert max(abs(r["x"] - START[0]) for r in before) <= 0.0002, "moved without the enable"
+    assert rows[-1]["x"] - START[0] > 0.05, "did not move with the enable held"
+    assert summary["enable_released_ticks"] > 0
+
+
+def test_a_cb3_runs_at_125_hz_and_is_refused_at_500(wall_server):
+    with running_simulator("--rate-hz", "125") as cb3:
+        bridge = start_bridge(cb3, wall_server, seconds=1.0)
+        _, err = bridge.communicate(timeout=30)
+        assert bridge.returncode == 1 and "--rate-hz 125" in err, err
+        bridge = start_bridge(cb3, wall_server, "--rate-hz", "125", seconds=2.0)
+        summary = finish(bridge)
+        assert summary["exit_reason"] == "seconds" and summary["rate_hz"] == 125.0
+        assert 200 <= summary["ticks"] <= 250
