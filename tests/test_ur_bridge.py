@@ -302,3 +302,16 @@ def test_a_cb3_runs_at_125_hz_and_is_refused_at_500(wall_server):
         summary = finish(bridge)
         assert summary["exit_reason"] == "seconds" and summary["rate_hz"] == 125.0
         assert 200 <= summary["ticks"] <= 250
+
+
+def test_a_dropped_rtde_connection_stops_the_arm(sim, wall_server):
+    bridge = start_bridge(sim, wall_server, seconds=20.0)
+    wait_servoing(sim, bridge)
+    sim.ask(cmd="person", force=[20, 0, 0])
+    time.sleep(0.3)
+    sim.ask(cmd="fault", kind="drop_connections")
+    summary = finish(bridge)
+    # the data stops advancing (or the script, its input gone, stops): stopped either way
+    assert summary["exit_reason"] in ("robot_stale", "control_script_stopped"), summary
+    time.sleep(0.3)
+    assert sim.state()["speed_norm"] < 1e-3
