@@ -382,6 +382,18 @@ def run_cli(*args, timeout=60):
     return json.loads(lines[0])
 
 
+def test_the_demo_renders_from_the_local_model(bin_dir):
+    with running_server(bin_dir, "--log-level", "warning") as fresh:
+        summary = run_cli("demo", "--server", fresh.tcp, "--seconds", "2", "--remote-mode", "local_model")
+    assert summary["remote_mode"] == "local_model" and summary["model_version"] > 0
+    # the same stroke as the direct demo: into the floor and the box, a few newtons, and
+    # (on loopback, the same renderer on the same positions) the direct demo's energy, about
+    # +0.0006 J in the runs of 2026-12-04
+    assert 500 < summary["contacts"] < 2000
+    assert 1.0 < summary["max_force_n"] <= 10.0
+    assert abs(summary["energy_j"]) < 0.01
+
+
 def test_the_demo_strokes_the_default_scene_and_plots(bin_dir, tmp_path):
     plot = tmp_path / "demo.png"
     with running_server(bin_dir, "--log-level", "warning") as fresh:

@@ -118,6 +118,13 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--seconds", type=_positive, default=4.0, help="how long (s)")
     demo.add_argument("--rate-hz", type=_positive, default=1000.0, help="the device's rate")
     demo.add_argument("--plot", metavar="FILE.png", help="draw force and position over time")
+    demo.add_argument(
+        "--remote-mode",
+        choices=("direct", "local_model"),
+        default="direct",
+        help="direct: render each command's force; local_model: render on the device from the "
+        "local models the commands carry (default %(default)s)",
+    )
     _server_options(demo)
 
     bench = commands.add_parser("bench", help="measure the realtime channel", allow_abbrev=False)
@@ -265,7 +272,13 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
             return scene_json(client.scene())
         if args.command == "demo":
             trace = Trace() if args.plot else None
-            summary = run_demo(client, args.seconds, rate_hz=args.rate_hz, trace=trace)
+            summary = run_demo(
+                client,
+                args.seconds,
+                rate_hz=args.rate_hz,
+                trace=trace,
+                remote_mode=args.remote_mode,
+            )
             if trace is not None:
                 plot_trace(trace, args.plot)
                 summary["plot"] = args.plot

@@ -110,18 +110,26 @@ def run_demo(
     rate_hz: float = 1000.0,
     command_timeout_s: float = 0.02,
     trace: Trace | None = None,
+    remote_mode: str = "direct",
 ) -> dict[str, Any]:
     """Strokes the default scene for seconds with a simulated impedance device over a
     real session; returns the summary (RTT percentiles in µs, max_force_n, contacts:
-    ticks in contact, packet counters, energy_j: the rendered force's net work). Fills
-    trace when given."""
+    ticks in contact, packet counters, energy_j: the rendered force's net work,
+    remote_mode, and for a local model the model version it ended on). remote_mode
+    "local_model" renders the force on the device from the models the commands carry
+    (DeviceSession.render), "direct" the force each command carries. Fills trace when
+    given."""
     seconds = check.positive(seconds, "seconds")
     rate_hz = check.limited(rate_hz, "rate_hz", "rate_hz")
     hand = HandSpec(path=stroke_path(seconds), **DEMO_HAND)
     start = STROKE_CYCLE[0][1:]
     device = SimImpedanceDevice(hand, DeviceSpec(start=start, **DEMO_DEVICE), rate_hz)
     info = client.open_session(
-        "impedance", max_force=DEMO_DEVICE["max_force"], rate_hz=rate_hz, start=start
+        "impedance",
+        max_force=DEMO_DEVICE["max_force"],
+        rate_hz=rate_hz,
+        start=start,
+        remote_mode=remote_mode,
     )
     contacts = 0
     max_force = 0.0
@@ -137,20 +145,28 @@ def run_demo(
                 held_force=sample.force,
                 timeout_s=command_timeout_s,
             )
-            # a lost command: the device keeps rendering what it had
-            if command is not None:
+            in_contact = False
+            if session.local is not None:
+                # the device's own rendering, command or not
+                rendered = session.render(sample.position, sample.velocity, dt=1.0 / rate_hz)
+                device.accept(rendered.force)
+                in_contact = rendered.contact
+            elif command is not None:
+                # (a lost command: the device keeps rendering what it had)
                 device.accept(command.force)
-                contacts += command.contact
+                in_contact = command.contact
+            contacts += in_contact
             held = device.held_force
             max_force = max(max_force, float(np.linalg.norm(held)))
             if trace is not None:
                 trace.t.append(t)
                 trace.position.append(sample.position.tolist())
                 trace.force.append(held.tolist())
-                trace.contact.append(bool(command is not None and command.contact))
+                trace.contact.append(bool(in_contact))
             device.advance(t)
             ticker.wait()
         summary = _loss_summary(session, ticker)
+        model_version = session.local.model_version if session.local is not None else 0
     return {
         "seconds": seconds,
         "ticks": ticks,
@@ -158,6 +174,8 @@ def run_demo(
         "max_force_n": round(max_force, 4),
         "contacts": contacts,
         "energy_j": device.energy_j,
+        "remote_mode": remote_mode,
+        "model_version": model_version,
     }
 
 
