@@ -155,6 +155,36 @@ def test_each_direction_gets_its_own_delay_and_jitter_within_bounds(bin_dir, ser
     assert summary["flows"] == 1
 
 
+def test_several_devices_at_once_each_get_a_flow_of_their_own_both_ways(bin_dir, server):
+    devices = [udp_socket() for _ in range(3)]
+    try:
+        with running_relay(bin_dir, endpoint(server), "--delay-ms", "5") as (relay, result):
+            # each device sends its own run of sequence numbers, interleaved with the others'
+            sending = [send_stream(d, relay, 100, 0.002) for d in devices]
+            for thread in sending:
+                thread.join()
+            up = receive(server, 0.3)
+            flows = sorted({source for _, _, source in up})
+            assert len(up) == 300 and len(flows) == 3, "one flow, one socket, per device"
+            # the server answers each flow with that flow's own numbers (offset by a
+            # thousand per flow): every device must get back its own and no other's
+            for k, flow in enumerate(flows):
+                for seq in range(50):
+                    server.sendto(HEADER.pack(1000 * (k + 1) + seq, time.monotonic_ns()), flow)
+            answers = [receive(d, 0.3) for d in devices]
+        owners = [{seq // 1000 for seq, _, _ in got} for got in answers]
+        assert all(len(got) == 50 for got in answers)
+        assert sorted(len(o) for o in owners) == [1, 1, 1] and len(set.union(*owners)) == 3
+        assert all(source == relay for got in answers for _, _, source in got)
+        summary = result["summary"]
+        assert summary["flows"] == 3
+        assert (summary["up"]["in"], summary["up"]["out"]) == (300, 300)
+        assert (summary["down"]["in"], summary["down"]["out"]) == (150, 150)
+    finally:
+        for d in devices:
+            d.close()
+
+
 def test_independent_loss_has_its_rate_and_the_summary_counts_it(bin_dir, server, device):
     with running_relay(bin_dir, endpoint(server), "--loss", "20%", "--seed", "3") as (relay, result):
         sending = send_stream(device, relay, 3000, 0.0002)
