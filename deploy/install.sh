@@ -11,6 +11,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev rapidjson-dev libfmt-dev libssl-dev libsodium-dev
   python3 python3-venv python3-dev openssl
   clang libclang-rt-14-dev
+  socat  # two joined pseudo-terminals: a Modbus RTU line for the UR bridge's tests
 )
 
 bash "$repo/deploy/apt_install_missing.sh" install "${packages[@]}"

@@ -58,9 +58,15 @@ def doomed_server(bin_dir, tmp_path):
     process.stop()
 
 
-def start_bridge(sim, server, *args, seconds=6.0):
+# Looser stop timeouts for the tests that are not about them: a machine loaded by a whole
+# test run can hold a process past 20 ms, which the bridge rightly takes for a fault
+TOLERANT = ("--stale-ms", "200", "--command-timeout-ms", "100")
+
+
+def start_bridge(sim, server, *args, seconds=6.0, tolerant=True):
     command = [sys.executable, "-m", "hapticd", "ur-bridge", "--robot", sim.host,
-               "--server", server.tcp, "--seconds", str(seconds), *args]  # fmt: skip
+               "--server", server.tcp, "--seconds", str(seconds),
+               *(TOLERANT if tolerant else ()), *args]  # fmt: skip
     return subprocess.Popen(
         [*realtime_prefix(), *command], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
@@ -75,6 +81,17 @@ def wait_servoing(sim, bridge, timeout_s=20.0):
         assert bridge.poll() is None, bridge.communicate()
         time.sleep(0.05)
     raise AssertionError("the bridge never servoed the arm")
+
+
+def moving_sideways(sim, server, seconds=0.3, tolerant=True):
+    """A bridge that servos the arm, pushed sideways through free space for seconds: the
+    bridge, and the simulator's host time just before the push."""
+    bridge = start_bridge(sim, server, seconds=20.0, tolerant=tolerant)
+    wait_servoing(sim, bridge)
+    since = sim.ask(cmd="ping")["host_time"]
+    sim.ask(cmd="person", force=[20, 0, 0])
+    time.sleep(seconds)
+    return bridge, since
 
 
 def finish(bridge, timeout_s=30.0):
@@ -92,7 +109,7 @@ def speed(row):
 
 
 def test_a_push_stops_on_the_virtual_wall_and_rests_there(sim, wall_server):
-    bridge = start_bridge(sim, wall_server, seconds=4.0)
+    bridge = start_bridge(sim, wall_server, seconds=5.0)
     wait_servoing(sim, bridge)
     pushed = sim.ask(cmd="ping")["host_time"]
     sim.ask(cmd="person", force=[0, 0, -20])
@@ -127,11 +144,7 @@ def test_nobody_pushing_the_arm_stays_put_while_the_sensor_drifts(sim, wall_serv
 
 
 def test_the_server_killed_while_the_arm_moves_stops_it(sim, doomed_server):
-    bridge = start_bridge(sim, doomed_server, seconds=20.0)
-    wait_servoing(sim, bridge)
-    since = sim.ask(cmd="ping")["host_time"]
-    sim.ask(cmd="person", force=[20, 0, 0])  # sideways: free space
-    time.sleep(0.5)
+    bridge, since = moving_sideways(sim, doomed_server, seconds=0.5, tolerant=False)
     assert sim.state()["speed_norm"] > 0.05, "the arm should be moving"
     doomed_server.process.kill()
     summary = finish(bridge)
@@ -147,11 +160,7 @@ def test_the_server_killed_while_the_arm_moves_stops_it(sim, doomed_server):
 
 
 def test_a_stalled_controller_is_noticed_and_the_arm_stopped(sim, wall_server):
-    bridge = start_bridge(sim, wall_server, seconds=20.0)
-    wait_servoing(sim, bridge)
-    since = sim.ask(cmd="ping")["host_time"]
-    sim.ask(cmd="person", force=[20, 0, 0])
-    time.sleep(0.5)
+    bridge, since = moving_sideways(sim, wall_server, seconds=0.5, tolerant=False)
     stalled = time.monotonic()
     sim.process.send_signal(signal.SIGSTOP)
     time.sleep(0.3)
@@ -174,10 +183,7 @@ def test_a_stalled_controller_is_noticed_and_the_arm_stopped(sim, wall_server):
 
 
 def test_a_protective_stop_is_reported_and_not_resumed(sim, wall_server):
-    bridge = start_bridge(sim, wall_server, seconds=20.0)
-    wait_servoing(sim, bridge)
-    sim.ask(cmd="person", force=[20, 0, 0])
-    time.sleep(0.3)
+    bridge, _ = moving_sideways(sim, wall_server)
     sim.ask(cmd="fault", kind="protective_stop")
     summary = finish(bridge)
     assert summary["exit_reason"] == "protective_stop"
@@ -247,11 +253,48 @@ def test_the_modbus_force_source_moves_the_arm_like_rtde(wall_server, tmp_path):
     assert abs(paths["rtde"][-1][1] - paths["modbus"][-1][1]) <= 0.0005
 
 
-def test_sigterm_stops_the_arm_and_the_bridge_exits_with_the_reason(sim, wall_server):
-    bridge = start_bridge(sim, wall_server, seconds=20.0)
+def test_an_emergency_stop_while_the_arm_moves_is_reported_and_not_resumed(sim, wall_server):
+    bridge, _ = moving_sideways(sim, wall_server)
+    sim.ask(cmd="fault", kind="emergency_stop")
+    summary = finish(bridge)
+    assert summary["exit_reason"] == "emergency_stop", summary
+    servoed = sim.state()["counters"]["servoL"]
+    time.sleep(0.3)
+    state = sim.state()
+    assert state["counters"]["servoL"] == servoed, "servoing resumed"
+    assert state["safety_mode_name"] == "ROBOT_EMERGENCY_STOP", state["safety_mode_name"]
+    assert state["speed_norm"] < 1e-3 and state["program"] is None
+
+
+@pytest.mark.parametrize("device", ["ft", "ur"])
+def test_a_modbus_device_that_stops_answering_stops_the_arm(sim, wall_server, tmp_path, device):
+    map_file = tmp_path / "sensor.json"
+    map_file.write_text(json.dumps(SIM_SENSOR_MAP))
+    ft = f"{sim.host}:{sim.endpoints['ft_modbus']}"
+    ur = f"{sim.host}:{sim.endpoints['ur_modbus']}"
+    bridge = start_bridge(sim, wall_server, "--force-source", "modbus", "--modbus", ft,
+                          "--modbus-map", str(map_file), "--enable-input", "0",
+                          "--ur-modbus", ur, seconds=20.0)  # fmt: skip
+    sim.ask(cmd="enable", on=True)
     wait_servoing(sim, bridge)
     sim.ask(cmd="person", force=[20, 0, 0])
     time.sleep(0.3)
+    assert sim.state()["speed_norm"] > 0.05, "the arm should be moving"
+    silenced = time.monotonic()
+    sim.ask(cmd="fault", kind="modbus_silence", device=device, on=True)
+    summary = finish(bridge)
+    lost = "force_source_lost" if device == "ft" else "enable_input_lost"
+    assert summary["exit_reason"] == lost, summary
+    # noticed once the newest reading is older than --modbus-stale-ms (50 ms): that
+    # reading was taken up to a poll (2 ms) before the silence; later by the scheduling of
+    # a loaded machine
+    noticed = summary["stop_events"][0]["noticed_ns"] * 1e-9
+    assert 0.05 - 0.005 <= noticed - silenced <= 0.05 + 0.2, noticed - silenced
+    sim.wait_for(lambda s: s["speed_norm"] < 1e-3, timeout_s=2.0, what="the arm at rest")
+
+
+def test_sigterm_stops_the_arm_and_the_bridge_exits_with_the_reason(sim, wall_server):
+    bridge, _ = moving_sideways(sim, wall_server)
     bridge.send_signal(signal.SIGTERM)
     summary = finish(bridge)
     assert summary["exit_reason"] == "signal" and summary["stops"] == 1
@@ -260,10 +303,7 @@ def test_sigterm_stops_the_arm_and_the_bridge_exits_with_the_reason(sim, wall_se
 
 
 def test_a_killed_bridge_is_stopped_by_the_scripts_watchdog(sim, wall_server):
-    bridge = start_bridge(sim, wall_server, seconds=20.0)
-    wait_servoing(sim, bridge)
-    sim.ask(cmd="person", force=[20, 0, 0])
-    time.sleep(0.3)
+    bridge, _ = moving_sideways(sim, wall_server)
     killed = time.monotonic()
     bridge.kill()
     bridge.wait()
@@ -278,7 +318,7 @@ def test_a_killed_bridge_is_stopped_by_the_scripts_watchdog(sim, wall_server):
 def test_the_arm_moves_only_while_the_enable_input_is_held(sim, wall_server):
     ur_modbus = f"{sim.host}:{sim.endpoints['ur_modbus']}"
     bridge = start_bridge(sim, wall_server, "--enable-input", "0", "--ur-modbus", ur_modbus,
-                          seconds=4.0)  # fmt: skip
+                          seconds=6.0)  # fmt: skip
     wait_servoing(sim, bridge)
     since = sim.ask(cmd="ping")["host_time"]
     sim.ask(cmd="person", force=[20, 0, 0])
@@ -286,6 +326,7 @@ def test_the_arm_moves_only_while_the_enable_input_is_held(sim, wall_server):
     held_from = sim.ask(cmd="ping")["host_time"]
     sim.ask(cmd="enable", on=True)
     summary = finish(bridge)
+    assert summary["exit_reason"] == "seconds", summary
     rows = rows_of(sim.trace(since))
     before = [r for r in rows if r["host_time"] < held_from]
     assert max(abs(r["x"] - START[0]) for r in before) <= 0.0002, "moved without the enable"
@@ -301,14 +342,11 @@ def test_a_cb3_runs_at_125_hz_and_is_refused_at_500(wall_server):
         bridge = start_bridge(cb3, wall_server, "--rate-hz", "125", seconds=2.0)
         summary = finish(bridge)
         assert summary["exit_reason"] == "seconds" and summary["rate_hz"] == 125.0
-        assert 200 <= summary["ticks"] <= 250
+        assert 150 <= summary["ticks"] <= 250  # 250 periods, fewer when cycles overrun
 
 
 def test_a_dropped_rtde_connection_stops_the_arm(sim, wall_server):
-    bridge = start_bridge(sim, wall_server, seconds=20.0)
-    wait_servoing(sim, bridge)
-    sim.ask(cmd="person", force=[20, 0, 0])
-    time.sleep(0.3)
+    bridge, _ = moving_sideways(sim, wall_server)
     sim.ask(cmd="fault", kind="drop_connections")
     summary = finish(bridge)
     # the data stops advancing (or the script, its input gone, stops): stopped either way

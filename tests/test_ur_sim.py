@@ -48,6 +48,14 @@ def _servo_for(control, target, seconds: float, lookahead: float = 0.1, kick: bo
     return cycles
 
 
+def _force_becomes(receive, expected, timeout_s: float = 5.0) -> None:
+    """Until the receive interface reads expected (a loaded machine delays the data)."""
+    deadline = time.monotonic() + timeout_s
+    while receive.getActualTCPForce() != pytest.approx(expected, abs=1e-9):
+        assert time.monotonic() < deadline, (receive.getActualTCPForce(), expected)
+        time.sleep(0.01)
+
+
 def _rows_after(trace: dict, host_time: float) -> list[dict]:
     fields = trace["fields"]
     return [dict(zip(fields, row, strict=True)) for row in trace["rows"] if row[1] >= host_time]
@@ -342,15 +350,12 @@ def test_zeroFtSensor_zeroes_the_persons_force_like_the_real_one():
         receive = rtde_receive.RTDEReceiveInterface(sim.host)
         try:
             assert sim.ctl(cmd="person", force=[0, 0, -20])["ok"]
-            time.sleep(0.05)
-            assert receive.getActualTCPForce() == pytest.approx([0, 0, -20, 0, 0, 0])
+            _force_becomes(receive, [0, 0, -20, 0, 0, 0])
             assert control.zeroFtSensor()
-            time.sleep(0.05)
-            assert receive.getActualTCPForce() == pytest.approx([0] * 6, abs=1e-12)
+            _force_becomes(receive, [0] * 6)
             sim.ctl(cmd="person", force=[5, 0, -20])
             sim.ctl(cmd="fault", kind="jump", bias=[0, 0, 3])
-            time.sleep(0.05)
-            assert receive.getActualTCPForce() == pytest.approx([5, 0, 3, 0, 0, 0])
+            _force_becomes(receive, [5, 0, 3, 0, 0, 0])
             assert sim.state()["counters"]["zeroFtSensor"] == 1
         finally:
             control.disconnect()
@@ -361,21 +366,28 @@ def test_script_watchdog_stops_the_arm_when_not_kicked():
     with simulator() as sim:
         control = rtde_control.RTDEControlInterface(sim.host)
         try:
-            assert control.setWatchdog(50.0)  # at least every 20 ms
+            # at least every 100 ms: a loaded machine can hold this process 20 ms
+            assert control.setWatchdog(10.0)
             target = list(START_POSE)
             target[0] += 0.2
             _servo_for(control, target, 0.3, kick=True)
             quiet_since = time.monotonic()
-            assert sim.state()["counters"]["watchdog_trips"] == 0
+            # (not checked here that it has not tripped yet: a loaded machine can take the
+            # watchdog's 100 ms to answer; the trip's time is checked below)
             state = sim.wait_for(
                 lambda s: s["counters"]["watchdog_trips"] == 1, what="a watchdog trip"
             )
             state = sim.wait_for(lambda s: s["at_rest"], what="the arm at rest")
-            assert state["runtime_state_name"] == "STOPPED" and not control.isProgramRunning()
+            assert state["runtime_state_name"] == "STOPPED"
+            # ur_rtde sees it in its next data package, which a loaded machine delays
+            deadline = time.monotonic() + 5.0
+            while control.isProgramRunning():
+                assert time.monotonic() < deadline, "ur_rtde still sees the program running"
+                time.sleep(0.01)
             trip = next(e for e in sim.ctl(cmd="trace")["events"] if e["event"] == "watchdog_trip")
-            # tripped after 20 ms of silence, within 150 ms of the last kick (a loaded machine)
-            assert trip["silent_s"] > 0.02
-            assert 0.01 <= trip["host_time"] - quiet_since < 0.15
+            # tripped after 100 ms of silence, within 400 ms of the last kick (a loaded machine)
+            assert trip["silent_s"] > 0.1
+            assert 0.09 <= trip["host_time"] - quiet_since < 0.4
             assert not control.servoL(target, 0.5, 0.5, 0.002, 0.1, 300)
         finally:
             control.disconnect()

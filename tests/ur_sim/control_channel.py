@@ -153,6 +153,14 @@ def _fault(c: Controller, request: dict) -> dict:
     elif kind == "clear_sensor":
         for sensor in _sensors(c, request):
             sensor.clear_faults(c.t)
+    elif kind == "modbus_silence":
+        # a Modbus server that stops answering (a cable pulled), or answers again
+        device, on = request.get("device"), request.get("on")
+        if device not in ("ft", "ur"):
+            raise RequestError(f"device must be 'ft' or 'ur', got {device!r}")
+        if not isinstance(on, bool):
+            raise RequestError(f"on must be true or false, got {on!r}")
+        c.silent_modbus = (c.silent_modbus | {device}) if on else (c.silent_modbus - {device})
     else:
         raise RequestError(f"unknown fault kind {kind!r}")
     c.event("fault", kind=kind)

@@ -145,6 +145,7 @@ class Controller:
         self.person = Person(rng=random.Random(config.seed))
         self.tcp_sensor = ForceSensor()
         self.external_sensor = ForceSensor()
+        self.silent_modbus: frozenset[str] = frozenset()  # "ft", "ur": servers not answering
         self.applied_wrench: tuple[float, ...] = (0.0,) * 6
         self.tcp_force = [0.0] * 6
         self.external_force = [0.0] * 6

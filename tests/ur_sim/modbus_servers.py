@@ -107,8 +107,15 @@ def ft_register_values(c: Controller) -> dict[int, int]:
     return regs
 
 
+async def _while_silent(controller: Controller, device: str) -> None:
+    """Holds a request unanswered while the device is silenced (fault modbus_silence)."""
+    while device in controller.silent_modbus:
+        await asyncio.sleep(0.005)
+
+
 def _ur_action(controller: Controller):
     async def action(function_code, start_address, address, count, registers, set_values):
+        await _while_silent(controller, "ur")
         with controller.lock:
             if set_values is not None:
                 for offset in range(count):
@@ -129,6 +136,7 @@ def _ur_action(controller: Controller):
 
 def _ft_action(controller: Controller):
     async def action(function_code, start_address, address, count, registers, set_values):
+        await _while_silent(controller, "ft")
         with controller.lock:
             if set_values is not None:
                 if address != 12 or count != 1:

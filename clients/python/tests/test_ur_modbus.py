@@ -1,19 +1,31 @@
 """The UR bridge's Modbus side: register maps decode every type and word order exactly,
 bad maps are refused by name, and ModbusForceSource and EnableInput read a real pymodbus
-server over TCP (the default map is a Robotiq FT 300's layout)."""
+server over TCP (the default map is a Robotiq FT 300's layout); a Poller keeps the
+newest reading and says when a device stopped answering."""
 
 import asyncio
 import json
+import pathlib
+import shutil
 import socket
 import struct
+import subprocess
 import threading
+import time
 
 import pytest
-from pymodbus.server import ModbusTcpServer
+from pymodbus.server import ModbusSerialServer, ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
 from hapticd.errors import HapticdError, LocalError
-from hapticd.ur_modbus import ROBOTIQ_FT300, Axis, EnableInput, ModbusForceSource, RegisterMap
+from hapticd.ur_modbus import (
+    ROBOTIQ_FT300,
+    Axis,
+    EnableInput,
+    ModbusForceSource,
+    Poller,
+    RegisterMap,
+)
 
 
 def words_of(fmt, value):
@@ -74,9 +86,10 @@ def test_a_map_file_is_read(tmp_path):
 
 class Server:
     """A real pymodbus TCP server on its own event loop thread, answering device
-    device_id's register reads from the dict registers (change it to change them)."""
+    device_id's register reads from the dict registers (change it to change them); with
+    serial_port, a Modbus RTU server on that serial device instead."""
 
-    def __init__(self, device_id, registers):
+    def __init__(self, device_id, registers, serial_port=None):
         self.registers = registers
 
         async def fill(function_code, start_address, address, count, values, set_values):
@@ -90,6 +103,10 @@ class Server:
         self.server = None
 
         async def listen():
+            if serial_port:
+                self.server = ModbusSerialServer(device, port=serial_port, baudrate=19200)
+                await self.server.serve_forever(background=True)
+                return 0
             self.server = ModbusTcpServer(device, address=("127.0.0.1", 0))
             await self.server.serve_forever(background=True)
             return self.server.transport.sockets[0].getsockname()[1]
@@ -131,6 +148,46 @@ def test_the_force_source_reads_an_ft300_layout_over_tcp():
         server.close()
 
 
+@pytest.fixture
+def serial_line(tmp_path):
+    """Two serial devices joined back to back (socat's pseudo-terminals): a Modbus RTU
+    line without the hardware. Yields (server end, client end)."""
+    assert shutil.which("socat"), "socat is installed by deploy/install.sh"
+    ends = (str(tmp_path / "server-tty"), str(tmp_path / "client-tty"))
+    line = subprocess.Popen(["socat", *(f"pty,raw,echo=0,link={end}" for end in ends)])
+    try:
+        deadline = time.monotonic() + 10
+        while not all(pathlib.Path(end).exists() for end in ends):
+            assert time.monotonic() < deadline and line.poll() is None, "socat did not start"
+            time.sleep(0.02)
+        yield ends
+    finally:
+        line.terminate()
+        line.wait(5)
+
+
+def test_the_force_source_reads_an_ft300_over_modbus_rtu(serial_line):
+    server_end, client_end = serial_line
+    server = Server(9, {180: 1500, 181: 65536 - 250, 182: 20}, serial_port=server_end)
+    try:
+        source = connect_when_listening(lambda: ModbusForceSource(client_end, ROBOTIQ_FT300))
+        try:
+            assert source.read().tolist() == pytest.approx([15.0, -2.5, 0.2])
+            server.registers[182] = 65536 - 1000
+            poller = Poller(source.read, 0.01, "the FT 300")
+            try:
+                deadline = time.monotonic() + 10
+                while poller.latest(max_age_s=5.0)[2] != pytest.approx(-10.0):
+                    assert time.monotonic() < deadline, "the poller never read the change"
+                    time.sleep(0.01)
+            finally:
+                poller.close()
+        finally:
+            source.close()
+    finally:
+        server.close()
+
+
 def test_the_enable_input_is_a_bit_of_register_0():
     server = Server(255, {0: 0b100})
     try:
@@ -153,3 +210,54 @@ def test_no_device_is_a_named_error():
         port = s.getsockname()[1]
     with pytest.raises(HapticdError, match=f"127.0.0.1:{port}"):
         ModbusForceSource(f"127.0.0.1:{port}", ROBOTIQ_FT300, timeout_s=0.2)
+
+
+class Device:
+    """A device read by a Poller: counts its reads, fails while told to."""
+
+    def __init__(self):
+        self.reads = 0
+        self.failing = False
+
+    def read(self):
+        if self.failing:
+            raise HapticdError("the bus timed out")
+        self.reads += 1
+        return self.reads
+
+
+def wait_until(condition, timeout_s=10.0):
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, "timed out"
+        time.sleep(0.005)
+
+
+def test_a_poller_keeps_the_newest_reading_and_names_a_device_gone_quiet():
+    device = Device()
+    poller = Poller(device.read, 0.002, "the test device")
+    try:
+        assert device.reads >= 1  # the first reading was taken before it returned
+        wait_until(lambda: device.reads >= 5)
+        newest = poller.latest(max_age_s=1.0)
+        assert newest >= 4 and newest <= device.reads
+        device.failing = True
+        # a reading stays good until it is older than the age asked for
+        time.sleep(0.05)
+        with pytest.raises(HapticdError, match=r"the test device .*the bus timed out"):
+            poller.latest(max_age_s=0.02)
+        device.failing = False
+        wait_until(lambda: device.reads > newest + 2)
+        assert poller.latest(max_age_s=1.0) > newest
+    finally:
+        poller.close()
+    stopped_at = device.reads
+    time.sleep(0.02)
+    assert device.reads == stopped_at, "the thread went on after close()"
+
+
+def test_a_device_that_cannot_be_read_at_first_is_refused_at_once():
+    device = Device()
+    device.failing = True
+    with pytest.raises(HapticdError, match="the bus timed out"):
+        Poller(device.read, 0.002, "the test device")

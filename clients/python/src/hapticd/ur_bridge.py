@@ -26,7 +26,9 @@ when commands stop coming from the server for command_timeout_s (10 ms), when th
 robot's RTDE data goes stale (its timestamp stops advancing for stale_s, 20 ms; ur_rtde
 alone notices after 2.5 s), on a protective or emergency stop (reported; the bridge does
 not resume, a person clears the robot and starts it again), when the control script
-stops, and at the end (seconds, SIGINT, SIGTERM). The control script's own watchdog
+stops, when the Modbus sensor or enable input gives no reading for modbus_stale_s (50 ms),
+and at the end (seconds, SIGINT, SIGTERM); an error from ur_rtde in the loop (the
+connection gone) stops it too, and the JSON line says so. The control script's own watchdog
 stops the arm if the bridge itself dies (no command for 1/watchdog_hz, 0.1 s by default:
 meanwhile the arm goes no further than its last target, which the speed cap keeps within
 max_speed times the lookahead of where it is, 7.5 mm by default). It refuses to start
@@ -50,7 +52,7 @@ from hapticd.client import Client
 from hapticd.device import DeviceSession
 from hapticd.errors import ConnectionClosed, HapticdError, LocalError, SessionEnded
 from hapticd.ur_force import ForceFilter, ForceFilterSettings
-from hapticd.ur_modbus import ROBOTIQ_FT300, EnableInput, ModbusForceSource, RegisterMap
+from hapticd.ur_modbus import ROBOTIQ_FT300, EnableInput, ModbusForceSource, Poller, RegisterMap
 from hapticd.ur_motion import BasePose, MotionLimiter, Workspace
 
 ROBOT_MODE_RUNNING = 7
@@ -96,6 +98,7 @@ class BridgeOptions:
     force: ForceFilterSettings = field(default_factory=ForceFilterSettings)
     command_timeout_s: float = 0.010
     stale_s: float = 0.020
+    modbus_stale_s: float = 0.050
     watchdog_hz: float = 10.0
     stop_decel: float = 10.0
 
@@ -175,6 +178,10 @@ class UrBridge:
         self._control: Any = None
         self._sensor: ModbusForceSource | None = None
         self._enable: EnableInput | None = None
+        self._force_poll: Poller[Any] | None = None
+        self._enable_poll: Poller[bool] | None = None
+        self._sensor_bias = np.zeros(3)
+        self.error = ""
         self._device: DeviceSession | None = None
 
     def connect(self) -> None:
@@ -200,10 +207,15 @@ class UrBridge:
             _robot_ready(self._receive, o.rate_hz, dashboard)
         finally:
             dashboard.disconnect()
+        period_s = 1.0 / o.rate_hz
         if o.force_source == "modbus":
-            self._sensor = ModbusForceSource(o.modbus, o.modbus_map)
+            sensor = self._sensor = ModbusForceSource(o.modbus, o.modbus_map)
+            # its reading at rest (hands off while the bridge starts), in its own frame
+            self._sensor_bias = np.mean([sensor.read() for _ in range(25)], axis=0)
+            self._force_poll = Poller(sensor.read, period_s, f"the sensor at {o.modbus}")
         if o.enable_input is not None:
-            self._enable = EnableInput(o.ur_modbus, o.enable_input)
+            enable = self._enable = EnableInput(o.ur_modbus, o.enable_input)
+            self._enable_poll = Poller(enable.held, period_s, f"the enable input at {o.ur_modbus}")
         try:
             self._control = rtde_control.RTDEControlInterface(robot, o.rate_hz)
         except RuntimeError as exc:
@@ -216,20 +228,24 @@ class UrBridge:
         if o.force_source == "rtde":
             self._control.zeroFtSensor()
 
-    def _read_force(self, rotation: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
-        """The person's force (N, base frame) as the force source reads it."""
-        if self._sensor is None:
-            return np.asarray(self._receive.getActualTCPForce()[:3], dtype=float)
-        force = self._sensor.read()
+    def _in_base(self, force: np.ndarray[Any, Any], rotation: np.ndarray[Any, Any]) -> Any:
+        """An external sensor's force (its map's frame) in the base frame."""
+        assert self._sensor is not None
         return rotation @ force if self._sensor.map.frame == "tool" else force
 
-    def _modbus_bias(
-        self, rotation: np.ndarray[Any, Any], samples: int = 25
-    ) -> np.ndarray[Any, Any]:
-        """An external sensor's reading at rest (the tool untouched): its bias."""
+    def _read_force(self, rotation: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
+        """The person's force (N, base frame) as the force source reads it; HapticdError
+        when an external sensor's newest reading is older than modbus_stale_s."""
+        if self._force_poll is None:
+            return np.asarray(self._receive.getActualTCPForce()[:3], dtype=float)
+        newest = self._force_poll.latest(self.options.modbus_stale_s)
+        return np.asarray(self._in_base(newest, rotation))
+
+    def _modbus_bias(self, rotation: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
+        """An external sensor's reading at rest (the tool untouched), in the base frame."""
         if self._sensor is None:
             return np.zeros(3)
-        return np.asarray(np.mean([self._read_force(rotation) for _ in range(samples)], axis=0))
+        return np.asarray(self._in_base(self._sensor_bias, rotation))
 
     def _stop(self, reason: str, noticed_ns: int) -> None:
         """servoStop, recorded; an arm already stopped by the controller (a protective
@@ -257,7 +273,16 @@ class UrBridge:
 
     def run(self, stop: threading.Event) -> str:
         """Servos the arm until the end or a fault; returns the exit reason. The arm is
-        stopped when it returns."""
+        stopped when it returns, also after an error in the loop (reason "error", the
+        message in self.error)."""
+        try:
+            return self._servo(stop)
+        except (RuntimeError, HapticdError) as exc:
+            # ur_rtde raises RuntimeError when its connection goes; nothing else should
+            self.error = f"{type(exc).__name__}: {exc}"
+            return self._finish("error", time.monotonic_ns())
+
+    def _servo(self, stop: threading.Event) -> str:
         o = self.options
         period = 1.0 / o.rate_hz
         pose = np.asarray(self._receive.getActualTCPPose(), dtype=float)
@@ -301,13 +326,21 @@ class UrBridge:
                 if read_ns - timestamp_changed_ns > o.stale_s * 1e9:
                     return self._finish("robot_stale", read_ns)
             fault = self._robot_fault()
+            if fault == "control_script_stopped":
+                return self._script_stopped(read_ns)
             if fault:
                 return self._finish(fault, read_ns)
             pose = np.asarray(self._receive.getActualTCPPose(), dtype=float)
             speed = np.asarray(self._receive.getActualTCPSpeed(), dtype=float)
             self.max_tcp_speed = max(self.max_tcp_speed, float(np.linalg.norm(speed[:3])))
-            force = filtered.update(self._read_force(rotation), period)
-            enabled = self._enable is None or self._enable.held()
+            try:
+                force = filtered.update(self._read_force(rotation), period)
+            except HapticdError:
+                return self._finish("force_source_lost", time.monotonic_ns())
+            try:
+                enabled = self._enable_poll is None or self._enable_poll.latest(o.modbus_stale_s)
+            except HapticdError:
+                return self._finish("enable_input_lost", time.monotonic_ns())
             if not enabled:
                 self.enable_released_ticks += 1
                 force = np.zeros(3)
@@ -344,6 +377,22 @@ class UrBridge:
                 self.overruns += 1
             self._control.waitPeriod(cycle)
 
+    def _script_stopped(self, noticed_ns: int, wait_s: float = 0.05) -> str:
+        """The control script stopped: stop, then tell why. A protective or emergency
+        stop ends the script too, and the control interface's connection can show the
+        script gone a period or two before the receive interface shows the stop."""
+        self._stop("control_script_stopped", noticed_ns)
+        deadline = time.monotonic() + wait_s
+        while time.monotonic() < deadline:
+            if self._receive.isEmergencyStopped():
+                self.stops[-1].reason = "emergency_stop"
+                break
+            if self._receive.isProtectiveStopped():
+                self.stops[-1].reason = "protective_stop"
+                break
+            time.sleep(0.002)
+        return self.stops[-1].reason
+
     def _finish(self, reason: str, noticed_ns: int) -> str:
         self._stop(reason, noticed_ns)
         return reason
@@ -362,7 +411,13 @@ class UrBridge:
             except RuntimeError:
                 pass
         if self._receive is not None:
-            self._receive.disconnect()
+            try:
+                self._receive.disconnect()
+            except RuntimeError:
+                pass
+        for poller in (self._force_poll, self._enable_poll):
+            if poller is not None:
+                poller.close()
         for device in (self._sensor, self._enable):
             if device is not None:
                 device.close()
@@ -377,6 +432,7 @@ class UrBridge:
 
         return {
             "exit_reason": exit_reason,
+            "error": self.error,
             "ticks": self.ticks,
             "rate_hz": o.rate_hz,
             "command_latency_p50_us": percentile(50),
@@ -593,11 +649,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="stop when the robot's data stopped advancing for this long (default %(default)s)",
     )
     add(
+        "--modbus-stale-ms",
+        type=_number(1, 1000),
+        default=d.modbus_stale_s * 1e3,
+        metavar="MS",
+        help="stop when the Modbus sensor or enable input gave no reading for this long "
+        "(default %(default)s)",
+    )
+    add(
         "--watchdog-hz",
         type=_number(1, 500),
         default=d.watchdog_hz,
         metavar="HZ",
-        help="the control script stops the arm unless kicked this often (default %(default)s)",
+        help="the control script stops the arm unless commanded this often (default %(default)s)",
     )
 
 
@@ -642,5 +706,6 @@ def options_from(args: argparse.Namespace) -> BridgeOptions:
         ),
         command_timeout_s=args.command_timeout_ms / 1e3,
         stale_s=args.stale_ms / 1e3,
+        modbus_stale_s=args.modbus_stale_ms / 1e3,
         watchdog_hz=args.watchdog_hz,
     )

@@ -17,6 +17,11 @@ The default, ROBOTIQ_FT300, is the layout of Robotiq's FT 300 sensor (holding re
 the tool frame; the bridge turns its force into the base frame with the TCP's
 orientation. Types: int16, uint16, int32, uint32, float32. The registers asked for must
 span at most MAX_SPAN registers (one request a sample).
+
+The bridge reads both through a Poller, a thread of its own that reads at the robot's
+rate: the control loop takes the newest reading without waiting on the bus (a Modbus
+RTU read at 19200 baud takes about 10 ms, longer than a 500 Hz period), and a device
+that stops answering is noticed by the age of its newest reading.
 """
 
 from __future__ import annotations
@@ -24,8 +29,11 @@ from __future__ import annotations
 import json
 import math
 import pathlib
+import threading
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 
@@ -224,3 +232,61 @@ class EnableInput:
 
     def close(self) -> None:
         self._client.close()
+
+
+T = TypeVar("T")
+
+
+class Poller(Generic[T]):
+    """Reads a device in a thread of its own every period_s (or as fast as it answers,
+    when slower) and keeps the newest reading. latest(max_age_s) gives it, or raises
+    HapticdError naming the device when no reading is that recent: it stopped answering
+    (the last error is in the message) or answers too slowly."""
+
+    def __init__(self, read: Callable[[], T], period_s: float, name: str) -> None:
+        self.name = name
+        self._read = read
+        self._period_s = period_s
+        self._lock = threading.Lock()
+        self._value: T | None = None
+        self._stamp_ns = 0
+        self._error = ""
+        self._stopping = threading.Event()
+        # the first reading in the caller's thread: a device that cannot be read at all
+        # is refused before anything moves
+        self._store(read())
+        self._thread = threading.Thread(target=self._run, name=f"poll {name}", daemon=True)
+        self._thread.start()
+
+    def _store(self, value: T) -> None:
+        with self._lock:
+            self._value, self._stamp_ns, self._error = value, time.monotonic_ns(), ""
+
+    def _run(self) -> None:
+        next_ns = time.monotonic_ns()
+        while not self._stopping.is_set():
+            try:
+                self._store(self._read())
+            except HapticdError as exc:
+                with self._lock:
+                    self._error = str(exc)
+            # paced against absolute deadlines; one late read does not bunch the next
+            next_ns = max(next_ns + int(self._period_s * 1e9), time.monotonic_ns())
+            self._stopping.wait(max(0.0, (next_ns - time.monotonic_ns()) * 1e-9))
+
+    def latest(self, max_age_s: float) -> T:
+        with self._lock:
+            value, stamp_ns, error = self._value, self._stamp_ns, self._error
+        age_s = (time.monotonic_ns() - stamp_ns) * 1e-9
+        if value is None or age_s > max_age_s:
+            why = f": {error}" if error else ""
+            raise HapticdError(
+                f"no reading from {self.name} for {age_s * 1e3:.0f} ms "
+                f"(at most {max_age_s * 1e3:.0f} ms){why}"
+            )
+        return value
+
+    def close(self) -> None:
+        """Stops the thread (it ends within one read's timeout)."""
+        self._stopping.set()
+        self._thread.join(timeout=1.0)
