@@ -195,12 +195,14 @@ def test_a_protective_stop_is_reported_and_not_resumed(sim, wall_server):
 
 
 @pytest.mark.parametrize(
-    ("mode", "says"),
-    [("power_off", "power it on"), ("protective_stop", "protective stop"),
-     ("emergency_stop", "emergency")],
+    ("flags", "says"),
+    [(["--robot-mode", "power_off"], "power it on"),
+     (["--robot-mode", "protective_stop"], "protective stop"),
+     (["--robot-mode", "emergency_stop"], "emergency"),
+     (["--local-control"], "switch it to remote control")],
 )  # fmt: skip
-def test_it_refuses_a_robot_that_cannot_be_servoed(wall_server, mode, says):
-    with running_simulator("--robot-mode", mode) as simulator:
+def test_it_refuses_a_robot_that_cannot_be_servoed(wall_server, flags, says):
+    with running_simulator(*flags) as simulator:
         bridge = start_bridge(simulator, wall_server, seconds=2.0)
         out, err = bridge.communicate(timeout=30)
         assert bridge.returncode == 1 and says in err, err
