@@ -4,6 +4,7 @@ sends, scene files written so that they read back the same, and export_scene rea
 meshes one at a time when they do not fit in one reply."""
 
 import json
+import pathlib
 
 import numpy as np
 import pytest
@@ -240,3 +241,33 @@ def test_a_mesh_that_keeps_changing_while_read_is_given_up_on():
         read_whole_scene(reads)
     # one changed reading, then a stable one: the second attempt succeeds
     assert read_whole_scene(FakeScenes([8, 7])).object("m").mesh is not None
+
+
+def golden(name):
+    """A vector of proto/golden/vectors.json (checked by the C++ server's tests too)."""
+    path = pathlib.Path(__file__).resolve().parents[3] / "proto" / "golden" / "vectors.json"
+    return next(v for v in json.loads(path.read_text())["vectors"] if v["name"] == name)
+
+
+def test_the_golden_get_scene_is_what_the_client_sends(fake_server):
+    def answer(request):
+        return [pb.Reply(request_id=request.request_id, scene=description())]
+
+    client, server = fake_server(answer)
+    client.scene(mesh_data_for=["tetra"])
+    sent = server.requests[0]
+    sent.request_id = 12
+    assert sent.SerializeToString().hex() == golden("get_scene_mesh_data")["hex"]
+
+
+def test_the_golden_scene_reply_decodes_to_numpy_arrays():
+    reply = pb.Reply.FromString(bytes.fromhex(golden("scene_reply")["hex"]))
+    scene = codec.scene_from(reply.scene)
+    mover, tetra = scene.object("mover"), scene.object("tetra")
+    assert mover.represented == Sphere(0.05) and mover.kinematic
+    assert mover.velocity.tolist() == [0.5, 0, 0] and mover.angular_velocity.tolist() == [0, 0, 2]
+    assert mover.shape_digest == 16654918056353844564
+    assert tetra.represented is tetra.mesh and tetra.pinned_representation == "mesh"
+    assert np.array_equal(tetra.mesh.vertices, TETRA)
+    assert np.array_equal(tetra.mesh.triangles, TETRA_TRIANGLES)
+    assert tetra.mesh_pose.position.tolist() == [1, 0, 0]
