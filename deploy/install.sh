@@ -11,6 +11,8 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev rapidjson-dev libfmt-dev libssl-dev libsodium-dev
   python3 python3-venv python3-dev openssl
   clang libclang-rt-14-dev
+  # the browser view's end-to-end test: headless Chromium over the DevTools protocol
+  chromium fonts-dejavu-core
 )
 
 bash "$repo/deploy/apt_install_missing.sh" install "${packages[@]}"

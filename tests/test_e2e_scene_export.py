@@ -6,7 +6,6 @@ the first one, hold the same scene: every field of every object, the mesh data a
 shape digests included. `scene show` prints strict JSON."""
 
 import json
-import pathlib
 import subprocess
 import sys
 import time
@@ -16,6 +15,7 @@ import numpy as np
 import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
+
 from server_process import running_server
 
 # the moving object's speed (m/s) and spin (rad/s)
@@ -30,6 +30,7 @@ def cli(server, *args, timeout=60):
         capture_output=True,
         text=True,
         timeout=timeout,
+        check=False,
     )
     assert done.returncode == 0, done.stderr
     return done.stdout
@@ -146,10 +147,12 @@ def test_an_exported_scene_reads_back_the_same_in_a_new_server(bin_dir, first_se
         original = client.scene(include_mesh_data=True)
         read_at = time.monotonic()
 
-    with running_server(bin_dir, "--scene", str(path), "--log-level", "warning") as second:
-        with hapticd.connect(second.tcp, timeout_s=20) as client:
-            reloaded = client.scene(include_mesh_data=True)
-            since_s = max(time.monotonic() - exported_at, read_at - exported_at) + 1.0
+    with (
+        running_server(bin_dir, "--scene", str(path), "--log-level", "warning") as second,
+        hapticd.connect(second.tcp, timeout_s=20) as client,
+    ):
+        reloaded = client.scene(include_mesh_data=True)
+        since_s = max(time.monotonic() - exported_at, read_at - exported_at) + 1.0
     assert_same_scene(reloaded, original, since_s)
     # the moving object keeps moving, at the same velocities
     spinner = reloaded.object("spinner")

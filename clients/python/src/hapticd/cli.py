@@ -26,6 +26,7 @@ import argparse
 import json
 import os
 import pathlib
+import signal
 import ssl
 import sys
 from collections.abc import Sequence
@@ -377,6 +378,8 @@ def _view(client: Client, args: argparse.Namespace) -> dict[str, Any]:
     )
     print(json.dumps({"url": handle.url}), flush=True)
     reason = "seconds"
+    # SIGTERM (a service manager's stop) ends the view as Ctrl-C does
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
     try:
         handle.wait(args.seconds)
         handle.stop()
