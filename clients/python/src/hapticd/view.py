@@ -46,7 +46,7 @@ from numpy.typing import ArrayLike
 from hapticd import _validate as check
 from hapticd import _view_model as model
 from hapticd.client import Client, Subscription
-from hapticd.errors import HapticdError, LocalError, RemoteError
+from hapticd.errors import HapticdError, LocalError, RemoteError, Timeout
 from hapticd.objects import Mesh
 from hapticd.results import SceneInfo, SessionTelemetry, Telemetry
 
@@ -59,6 +59,8 @@ DEFAULT_FORCE_SCALE_M_PER_N = 0.01
 HOST = "127.0.0.1"
 # How long (s) the view waits for a sample before giving up on the server.
 SAMPLE_TIMEOUT_S = 10.0
+# How soon (s) the view's thread notices stop().
+STOP_POLL_S = 0.25
 # Refusals of a mesh-data read that leave the mesh undrawn rather than stop the view: too
 # large for one reply, or removed since the scene was read.
 UNREADABLE = ("RESOURCE_EXHAUSTED", "FRAME_TOO_LARGE", "NOT_FOUND")
@@ -150,8 +152,18 @@ class View:
     def _run(self) -> None:
         try:
             with self._subscription:
+                silent_s = 0.0
+                # wait for samples in short slices, so that stop() is heard within one
                 while not self._stop.is_set():
-                    self._draw(self._subscription.next(SAMPLE_TIMEOUT_S))
+                    try:
+                        sample = self._subscription.next(STOP_POLL_S)
+                    except Timeout:
+                        silent_s += STOP_POLL_S
+                        if silent_s >= SAMPLE_TIMEOUT_S:
+                            raise
+                        continue
+                    silent_s = 0.0
+                    self._draw(sample)
         except HapticdError as exc:
             self.error = exc
             self._status.content = f"<p>stopped: {type(exc).__name__}: {exc}</p>"
