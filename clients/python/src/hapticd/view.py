@@ -306,7 +306,7 @@ class View:
                 low, high = np.full(3, -0.25), np.full(3, 0.25)
             look_at = (low + high) / 2
             reach = max(0.2, float(np.max(high - low)))
-            position = look_at + reach * np.array([0.55, -1.0, 0.7])
+            position = look_at + reach * np.array([0.42, -0.8, 0.55])
         self._server.initial_camera.position = position
         self._server.initial_camera.look_at = look_at
 
