@@ -2,11 +2,12 @@
 when the scene's version moves on, a mesh's data once per shape digest) and the bounds
 of its arguments, refused by name. The page in a browser: tests/test_e2e_view.py."""
 
+import threading
 import time
 
 import pytest
 
-from hapticd import LocalError
+from hapticd import LocalError, RemoteError
 from hapticd import view as hapticd_view
 from hapticd.v1 import hapticd_pb2 as pb
 
@@ -109,3 +110,19 @@ def test_bad_arguments_are_refused_by_name_before_anything_starts(fake_server, a
 def test_a_view_needs_a_client():
     with pytest.raises(LocalError, match="it must be a hapticd Client"):
         hapticd_view.serve("127.0.0.1:7460")
+
+
+def test_a_refused_subscription_is_raised_and_leaves_no_page_behind(fake_server):
+    def refuse(request):
+        error = pb.Error(code=pb.Error.CODE_RESOURCE_EXHAUSTED, message="16 subscriptions")
+        return [pb.Reply(request_id=request.request_id, error=error)]
+
+    client, _ = fake_server(refuse)
+    threads_before = threading.active_count()
+    with pytest.raises(RemoteError, match="RESOURCE_EXHAUSTED"):
+        hapticd_view.serve(client, port=0)
+    # the page's server thread is gone again
+    deadline = time.monotonic() + 10
+    while threading.active_count() > threads_before and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert threading.active_count() <= threads_before

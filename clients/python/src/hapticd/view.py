@@ -118,7 +118,12 @@ class View:
         self._unreadable: dict[str, int] = {}
         self._sessions: dict[int, dict[str, viser.SceneNodeHandle]] = {}
         self._scene_version: int | None = None
-        self._subscription: Subscription = client.subscribe(rate_hz)
+        try:
+            self._subscription: Subscription = client.subscribe(rate_hz)
+        except BaseException:
+            with contextlib.redirect_stdout(sys.stderr):
+                self._server.stop()
+            raise
         self._thread = threading.Thread(target=self._run, name="hapticd-view", daemon=True)
         self._thread.start()
 
