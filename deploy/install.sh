@@ -12,6 +12,8 @@ packages=(
   python3 python3-venv python3-dev openssl
   clang libclang-rt-14-dev
   socat  # two joined pseudo-terminals: a Modbus RTU line for the UR bridge's tests
+  # the browser view's end-to-end test: headless Chromium over the DevTools protocol
+  chromium fonts-dejavu-core
 )
 
 bash "$repo/deploy/apt_install_missing.sh" install "${packages[@]}"

@@ -11,6 +11,7 @@
 #include "server/net/proto_convert.h"
 #include "server/net/ray_batch.h"
 #include "server/net/request_error.h"
+#include "server/net/scene_description.h"
 #include "server/query/scene_queries.h"
 
 namespace hapticd::net {
@@ -252,14 +253,8 @@ v1::Reply ControlService::Dispatch(const v1::Request& request, ConnectionState& 
       PublishScene();
       return Done();
     case R::kGetScene: {
-      const auto snapshot = publisher_.current();
       v1::Reply reply;
-      v1::SceneDescription* description = reply.mutable_scene();
-      description->set_version(snapshot->version());
-      description->set_tolerance(snapshot->settings().tolerance);
-      for (int i = 0; i < snapshot->num_objects(); ++i) {
-        WriteObjectInfo(snapshot->object(i), description->add_objects());
-      }
+      *reply.mutable_scene() = DescribeScene(*publisher_.current(), request.get_scene());
       return reply;
     }
     case R::kRayCast: return RayCast(request.ray_cast());

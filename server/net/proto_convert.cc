@@ -1,6 +1,8 @@
 #include "server/net/proto_convert.h"
 
 #include <cmath>
+#include <type_traits>
+#include <variant>
 
 #include <fmt/format.h>
 #include <google/protobuf/unknown_field_set.h>
@@ -254,7 +256,70 @@ void WriteMaterial(const scene::Material& material, v1::Material* out) {
   out->set_force_shading(material.force_shading);
 }
 
-void WriteObjectInfo(const scene::SceneObject& object, v1::ObjectInfo* out) {
+namespace {
+
+v1::Representation WriteRepresentation(scene::Representation representation) {
+  switch (representation) {
+    case scene::Representation::kSphere: return v1::REPRESENTATION_SPHERE;
+    case scene::Representation::kBox: return v1::REPRESENTATION_BOX;
+    case scene::Representation::kCapsule: return v1::REPRESENTATION_CAPSULE;
+    case scene::Representation::kConvex: return v1::REPRESENTATION_CONVEX;
+    case scene::Representation::kMesh: return v1::REPRESENTATION_MESH;
+    default: return v1::REPRESENTATION_AUTO;
+  }
+}
+
+// The stored shape's parameters, in its own frame (a mesh's data goes with the given
+// mesh instead: the frames coincide).
+void WriteRepresentedShape(const scene::Shape& shape, v1::Shape* out) {
+  std::visit(
+      [out](const auto& s) {
+        using S = std::decay_t<decltype(s)>;
+        if constexpr (std::is_same_v<S, scene::SphereShape>) {
+          out->mutable_sphere()->set_radius(s.radius);
+        } else if constexpr (std::is_same_v<S, scene::BoxShape>) {
+          WriteVector(s.half_extents, out->mutable_box()->mutable_half_extents());
+        } else if constexpr (std::is_same_v<S, scene::CapsuleShape>) {
+          out->mutable_capsule()->set_radius(s.radius);
+          out->mutable_capsule()->set_half_length(s.half_length);
+        } else if constexpr (std::is_same_v<S, scene::PlaneShape>) {
+          out->mutable_plane();
+        } else if constexpr (std::is_same_v<S, scene::ConvexShape>) {
+          auto* points = out->mutable_convex()->mutable_points();
+          points->Reserve(static_cast<int>(3 * s.hull->vertices.size()));
+          for (const Vector3& p : s.hull->vertices) points->Add(p.data(), p.data() + 3);
+        } else {
+          out->mutable_mesh()->set_representation(v1::REPRESENTATION_MESH);
+        }
+      },
+      shape);
+}
+
+// The mesh an object was given as, in its frame M, and M's pose: X_WM = X_WS X_MS^-1.
+void WriteGivenMesh(const scene::SceneObject& object, bool mesh_data, v1::ObjectInfo* out) {
+  const scene::RepresentationChoice& choice = object.representation;
+  v1::Mesh* mesh = out->mutable_mesh();
+  mesh->set_representation(WriteRepresentation(choice.pin));
+  if (mesh_data) {
+    const geometry::TriangleMesh& given = *choice.mesh;
+    auto* vertices = mesh->mutable_vertices();
+    vertices->Reserve(3 * given.num_vertices());
+    for (const Vector3& v : given.vertices()) vertices->Add(v.data(), v.data() + 3);
+    auto* triangles = mesh->mutable_triangles();
+    triangles->Reserve(3 * given.num_triangles());
+    for (const auto& t : given.triangles()) {
+      for (const int k : t) triangles->Add(static_cast<uint32_t>(k));
+    }
+  }
+  scene::Pose X_WM;
+  X_WM.rotation = object.X_WB.rotation * choice.X_MS.rotation.transpose();
+  X_WM.translation = object.X_WB.translation - X_WM.rotation * choice.X_MS.translation;
+  WritePose(X_WM, out->mutable_mesh_pose());
+}
+
+}  // namespace
+
+void WriteObjectInfo(const scene::SceneObject& object, v1::ObjectInfo* out, bool mesh_data) {
   const scene::ShapeType stored = scene::TypeOf(object.shape);
   const bool was_mesh = object.representation.chosen != scene::Representation::kAuto;
   out->set_name(object.name);
@@ -281,6 +346,17 @@ void WriteObjectInfo(const scene::SceneObject& object, v1::ObjectInfo* out) {
     out->set_ray_backend(std::string(
         scene::RayBackendName(mesh->embree ? scene::RayBackend::kEmbree : scene::RayBackend::kNative)));
   }
+  // read back: the shape, the given mesh, the velocities of the client's frame
+  WriteRepresentedShape(object.shape, out->mutable_represented_shape());
+  if (object.representation.mesh) WriteGivenMesh(object, mesh_data, out);
+  if (object.motion == scene::Motion::kKinematic) {
+    // the stored velocity is of S's origin; the client's frame M sits r_W behind it
+    const Vector3 r_W = object.X_WB.rotation * object.representation.X_MS.rotation.transpose() *
+                        object.representation.X_MS.translation;
+    WriteVector(object.v_WB - object.w_WB.cross(r_W), out->mutable_velocity());
+    WriteVector(object.w_WB, out->mutable_angular_velocity());
+  }
+  out->set_shape_digest(object.shape_digest);
 }
 
 std::string FindUnknownField(const google::protobuf::Message& message, const std::string& path) {

@@ -35,7 +35,9 @@ bool ReadLocalModelMode(const v1::OpenSession& open);
 void WriteVector(const geometry::Vector3& v, v1::Vec3* out);
 void WritePose(const scene::Pose& pose, v1::Pose* out);
 void WriteMaterial(const scene::Material& material, v1::Material* out);
-void WriteObjectInfo(const scene::SceneObject& object, v1::ObjectInfo* out);
+// The object as GetScene describes it; a given mesh's vertices and triangles only
+// with mesh_data (DescribeScene bounds how much that is).
+void WriteObjectInfo(const scene::SceneObject& object, v1::ObjectInfo* out, bool mesh_data = false);
 
 // The path of the first field in message (or below) that hapticd.v1 does not define,
 // or "" when there is none: requests with unknown fields are refused, not half-read.

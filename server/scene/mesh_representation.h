@@ -42,6 +42,12 @@ struct RepresentationChoice {
   // triangles were rewound; it is open (a surface: never inside, unsigned distance);
   // the pinned representation's error bound exceeds the scene's tolerance.
   std::vector<std::string> warnings;
+  // Set by the scene builder: the mesh as validated, kept whatever represents it so the
+  // scene can be read back and exported (the BVH shares it when the mesh represents
+  // itself; a primitive or hull keeps it alive for that alone), and the representation
+  // the client pinned (kAuto: chosen here).
+  std::shared_ptr<const geometry::TriangleMesh> mesh;
+  Representation pin = Representation::kAuto;
 };
 
 struct RepresentedMesh {

@@ -10,6 +10,7 @@
 #include "server/embree/embree_device.h"
 #include "server/embree/embree_mesh.h"
 #include "server/geometry/convex_hull.h"
+#include "server/scene/shape_digest.h"
 #include "server/scene/value_text.h"
 
 namespace hapticd::scene {
@@ -167,11 +168,16 @@ RepresentedMesh MakeMesh(const MeshSpec& spec, const std::string& field, const S
   } catch (const std::invalid_argument& e) {
     throw SceneError(field + ": " + e.what());
   }
+  RepresentedMesh represented;
   try {
-    return ChooseMeshRepresentation(std::move(mesh), settings.tolerance, spec.pin);
+    represented = ChooseMeshRepresentation(mesh, settings.tolerance, spec.pin);
   } catch (const std::invalid_argument& e) {
     throw SceneError(field + ".pin: " + e.what());
   }
+  // kept for reading the scene back, whatever represents it
+  represented.choice.mesh = std::move(mesh);
+  represented.choice.pin = spec.pin;
+  return represented;
 }
 
 // The shape of spec (validated) and, for a mesh, how it is represented.
@@ -235,6 +241,7 @@ SceneObject MakeObject(const ObjectSpec& spec, const SceneSettings& settings) {
   out.material = spec.material;
   out.motion = spec.motion;
   Place(out, spec.X_WB, spec.v_WB, spec.w_WB);
+  out.shape_digest = DigestShape(out.shape, out.representation);
   return out;
 }
 

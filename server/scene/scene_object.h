@@ -3,6 +3,7 @@
 // One object of a scene snapshot: its shape in its body frame B, where B is, how it
 // feels, and how it moves.
 
+#include <cstdint>
 #include <string>
 
 #include "server/geometry/aabb.h"
@@ -32,6 +33,9 @@ struct SceneObject {
   RepresentationChoice representation;
   // Box around the placed shape in W (CalcWorldBounds), for culling.
   geometry::Aabb bounds_W;
+  // DigestShape(shape, representation), set when the object is made: readers caching
+  // its geometry tell a changed shape by it.
+  uint64_t shape_digest = 0;
 
   // Velocity in W of the body point now at p_W.
   Vector3 CalcPointVelocity(const Vector3& p_W) const {

@@ -16,6 +16,8 @@
 #include "server/net/datagram_codec.h"
 #include "server/net/model_codec.h"
 #include "server/net/proto_convert.h"
+#include "server/net/scene_description.h"
+#include "server/scene/scene_builder.h"
 
 namespace hapticd::net {
 namespace {
@@ -49,7 +51,7 @@ TEST(GoldenVectors, EveryVectorEncodesAndDecodesExactly) {
   const rapidjson::Document document = LoadVectors();
   ASSERT_TRUE(document.IsObject()) << "proto/golden/vectors.json does not parse";
   const auto& vectors = document["vectors"].GetArray();
-  ASSERT_GE(vectors.Size(), 7u);
+  ASSERT_GE(vectors.Size(), 13u);
   // Make sure the generated descriptors are linked in before looking them up by name.
   v1::Request::descriptor();
   for (const auto& vector : vectors) {
@@ -151,6 +153,46 @@ TEST(GoldenVectors, TheLocalModelSessionAsksForOne) {
   Vector3 start_W;
   double timeout_s = 0;
   EXPECT_NO_THROW(ReadSessionRequest(request.open_session(), start_W, timeout_s));
+}
+
+// The scene read back: the server describes the scene the vector shows exactly so, for
+// the GetScene vector (a digest is opaque, so not compared).
+TEST(GoldenVectors, TheSceneReplyIsWhatTheServerDescribes) {
+  const rapidjson::Document document = LoadVectors();
+  ASSERT_TRUE(document.IsObject());
+  v1::Request request;
+  ASSERT_TRUE(request.ParseFromString(FromHex(FindVector(document, "get_scene_mesh_data")["hex"].GetString())));
+  v1::Reply expected;
+  ASSERT_TRUE(expected.ParseFromString(FromHex(FindVector(document, "scene_reply")["hex"].GetString())));
+
+  scene::SceneBuilder builder;
+  scene::ObjectSpec mover;
+  mover.name = "mover";
+  mover.shape = scene::SphereShape{0.05};
+  mover.X_WB.translation = {0.1, 0, 0.05};
+  mover.material.stiffness = 2000;
+  mover.motion = scene::Motion::kKinematic;
+  mover.v_WB = {0.5, 0, 0};
+  mover.w_WB = {0, 0, 2};
+  builder.Add(mover);
+  scene::ObjectSpec tetra;
+  tetra.name = "tetra";
+  scene::MeshSpec mesh;
+  mesh.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  mesh.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  mesh.pin = scene::Representation::kMesh;
+  tetra.shape = mesh;
+  tetra.X_WB.translation = {1, 0, 0};
+  tetra.material.stiffness = 1000;
+  builder.Add(tetra);
+  v1::SceneDescription described = DescribeScene(*builder.Build(5), request.get_scene());
+
+  v1::SceneDescription want = expected.scene();
+  for (auto* scene : {&described, &want}) {
+    for (auto& object : *scene->mutable_objects()) object.clear_shape_digest();
+  }
+  EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(described, want))
+      << "server: " << described.ShortDebugString() << "\nvector: " << want.ShortDebugString();
 }
 
 }  // namespace

@@ -5,6 +5,8 @@ numpy (packed fields), so a large mesh costs no per-element Python work.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -43,6 +45,7 @@ REPRESENTATION_VALUES = {
     "convex": pb.REPRESENTATION_CONVEX,
     "mesh": pb.REPRESENTATION_MESH,
 }
+REPRESENTATION_NAMES = {value: name for name, value in REPRESENTATION_VALUES.items()}
 RAY_BACKEND_VALUES = {
     "default": pb.RAY_BACKEND_DEFAULT,
     "native": pb.RAY_BACKEND_NATIVE,
@@ -191,29 +194,81 @@ def object_message(spec: ObjectSpec) -> pb.Object:
     return message
 
 
+def get_scene_message(include_mesh_data: bool, mesh_data_for: list[str]) -> pb.GetScene:
+    """A GetScene asking for every mesh's data, or the named objects' (or none)."""
+    return pb.GetScene(include_mesh_data=include_mesh_data, mesh_data_for=mesh_data_for)
+
+
+def _points(values: Iterable[float]) -> FloatArray:
+    """A flat x0 y0 z0 x1 ... field as an (N, 3) array."""
+    return np.array(values, dtype=np.float64).reshape(-1, 3)
+
+
+def _given_mesh(info: pb.ObjectInfo) -> Mesh | None:
+    """The mesh an object was given as, when its data came (else None)."""
+    if not info.HasField("mesh") or len(info.mesh.triangles) == 0:
+        return None
+    return Mesh(
+        _points(info.mesh.vertices),
+        np.array(info.mesh.triangles, dtype=np.uint32).reshape(-1, 3),
+        REPRESENTATION_NAMES[info.mesh.representation],
+        info.ray_backend or "default",
+    )
+
+
+def _represented_shape(info: pb.ObjectInfo, mesh: Mesh | None) -> Shape | None:
+    """The shape the server renders (a mesh representation is the given mesh itself:
+    its data comes once, in info.mesh)."""
+    shape = info.represented_shape
+    kind = shape.WhichOneof("kind")
+    if kind == "sphere":
+        return Sphere(shape.sphere.radius)
+    if kind == "box":
+        return Box(array3(shape.box.half_extents))
+    if kind == "capsule":
+        return Capsule(shape.capsule.radius, shape.capsule.half_length)
+    if kind == "plane":
+        return Plane()
+    if kind == "convex":
+        return Convex(_points(shape.convex.points))
+    return mesh
+
+
+def object_info_from(info: pb.ObjectInfo) -> ObjectInfo:
+    """An ObjectInfo from its message."""
+    mesh = _given_mesh(info)
+    return ObjectInfo(
+        name=info.name,
+        shape=info.shape,
+        representation=info.representation,
+        representation_error=info.representation_error,
+        bounds_min=array3(info.bounds_min),
+        bounds_max=array3(info.bounds_max),
+        pose=pose_from(info.pose),
+        material=material_from(info.material),
+        kinematic=info.kinematic,
+        triangles=info.triangles,
+        ray_backend=info.ray_backend,
+        closed=info.closed,
+        topology=info.topology,
+        rewound_triangles=info.rewound_triangles,
+        warnings=tuple(info.warnings),
+        represented=_represented_shape(info, mesh),
+        mesh=mesh,
+        mesh_pose=pose_from(info.mesh_pose) if info.HasField("mesh_pose") else None,
+        pinned_representation=(
+            REPRESENTATION_NAMES[info.mesh.representation] if info.HasField("mesh") else ""
+        ),
+        velocity=array3(info.velocity),
+        angular_velocity=array3(info.angular_velocity),
+        shape_digest=info.shape_digest,
+    )
+
+
 def scene_from(message: pb.SceneDescription) -> SceneInfo:
-    """A SceneInfo from a SceneDescription; LocalError if it holds an invalid pose or
-    material (the caller turns that into a ProtocolError)."""
-    objects = [
-        ObjectInfo(
-            name=info.name,
-            shape=info.shape,
-            representation=info.representation,
-            representation_error=info.representation_error,
-            bounds_min=array3(info.bounds_min),
-            bounds_max=array3(info.bounds_max),
-            pose=pose_from(info.pose),
-            material=material_from(info.material),
-            kinematic=info.kinematic,
-            triangles=info.triangles,
-            ray_backend=info.ray_backend,
-            closed=info.closed,
-            topology=info.topology,
-            rewound_triangles=info.rewound_triangles,
-            warnings=tuple(info.warnings),
-        )
-        for info in message.objects
-    ]
+    """A SceneInfo from a SceneDescription; LocalError if it holds an invalid pose,
+    material or shape (the caller turns that into a ProtocolError)."""
+    objects = [object_info_from(info) for info in message.objects]
     return SceneInfo(version=message.version, tolerance=message.tolerance, objects=objects)
 
 

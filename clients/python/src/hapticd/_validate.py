@@ -6,13 +6,17 @@ its bad value, e.g. "radius is -0.5; it must be a finite number > 0".
 from __future__ import annotations
 
 import math
+import os
+import sys
+import warnings
 from dataclasses import dataclass
-from typing import Any
+from types import FrameType
+from typing import Any, Protocol, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from hapticd.errors import LocalError
+from hapticd.errors import LocalError, QuaternionOrderWarning
 
 FloatArray = NDArray[np.float64]
 IndexArray = NDArray[np.uint32]
@@ -252,17 +256,55 @@ def triangles(value: ArrayLike, name: str, vertex_count: int) -> IndexArray:
     return array.astype(np.uint32)
 
 
-def quaternion(value: ArrayLike, name: str) -> FloatArray:
+class ScipyRotation(Protocol):
+    """What hapticd uses of a scipy.spatial.transform.Rotation (scipy >= 1.14)."""
+
+    @property
+    def single(self) -> bool: ...
+
+    def as_quat(self, canonical: bool = False, *, scalar_first: bool = False) -> Any: ...
+
+
+# A rotation as the API takes it: a quaternion (w, x, y, z), a 3x3 matrix, or a scipy
+# Rotation.
+RotationLike = ArrayLike | ScipyRotation
+
+
+def _is_scipy_rotation(value: object) -> bool:
+    """Whether value is a scipy Rotation (told by its type's module: scipy is imported
+    only by whoever made one)."""
+    return type(value).__module__.startswith("scipy.spatial.transform") and hasattr(
+        value, "as_quat"
+    )
+
+
+def quaternion(value: RotationLike, name: str, *, hint_order: bool = False) -> FloatArray:
     """An orientation as a unit quaternion (w, x, y, z): value is a quaternion (shape
-    (4,), unit within 1e-6) or a rotation matrix (shape (3, 3), columns the body's axes
-    in the world frame, orthonormal within 1e-6 and det +1)."""
-    array = as_floats(value, name)
+    (4,), unit within 1e-6, in the order (w, x, y, z)), a rotation matrix (shape (3, 3),
+    columns the body's axes in the world frame, orthonormal within 1e-6 and det +1) or
+    a single scipy.spatial.transform.Rotation. With hint_order, a quaternion that may
+    be in scipy's (x, y, z, w) order gets a QuaternionOrderWarning (see
+    hint_quaternion_order); it is still read as (w, x, y, z)."""
+    if _is_scipy_rotation(value):
+        scipy_rotation = cast(ScipyRotation, value)
+        if not scipy_rotation.single:
+            raise LocalError(
+                f"{name} is a scipy Rotation holding {len(cast(Any, scipy_rotation))} "
+                "rotations; it must hold one"
+            )
+        q = float_array(scipy_rotation.as_quat(scalar_first=True), name, (4,))
+        result: FloatArray = q / np.linalg.norm(q)
+        return result
+    array = as_floats(cast(ArrayLike, value), name)
     if array.shape == (4,):
         q = float_array(array, name, (4,))
         norm = float(np.linalg.norm(q))
         if abs(norm - 1) > ROTATION_TOLERANCE:
             raise LocalError(f"{name} is {_shown(q)}; a quaternion must have norm 1, not {norm!r}")
-        return q / norm
+        q = q / norm
+        if hint_order:
+            hint_quaternion_order(q, name)
+        return q
     if array.shape != (3, 3):
         raise LocalError(
             f"{name} has shape {array.shape}; it must be a quaternion (w, x, y, z) "
@@ -276,6 +318,52 @@ def quaternion(value: ArrayLike, name: str) -> FloatArray:
             f"det R = {np.linalg.det(rotation):.3g})"
         )
     return rotation_to_quaternion(rotation)
+
+
+def _turn(q: FloatArray) -> str:
+    """The turn a unit quaternion (w, x, y, z) makes, in words: "a turn of 180 degrees
+    about [0, 0, 1]"."""
+    angle = math.degrees(2 * math.acos(min(1.0, abs(float(q[0])))))
+    axis = q[1:] * (1 if q[0] >= 0 else -1)
+    length = float(np.linalg.norm(axis))
+    if length == 0:
+        return "no turn"
+    about = ", ".join(f"{c:.3g}" for c in axis / length)
+    return f"a turn of {angle:.3g} degrees about [{about}]"
+
+
+def hint_quaternion_order(q: FloatArray, name: str) -> None:
+    """The rule for the order hint: a unit quaternion q given as (w, x, y, z) whose last
+    component is larger in magnitude than its first (|q[3]| > |q[0]|) would be the
+    smaller turn read in scipy's (x, y, z, w) order. So scipy's as_quat() of every turn
+    under 90 degrees gets the hint (the identity, (0, 0, 0, 1), among them), and a
+    (w, x, y, z) quaternion of a turn under 90 degrees never does (there |w| > 0.707 >
+    |z|). Such a q gets a QuaternionOrderWarning naming both readings, pointing at the
+    caller's line; q is used as (w, x, y, z) all the same. A matrix or a scipy Rotation
+    never gets one."""
+    if abs(float(q[3])) <= abs(float(q[0])):
+        return
+    scipy_order = np.array([q[3], q[0], q[1], q[2]])
+    warnings.warn(
+        f"{name} is {_shown(q)}, read as (w, x, y, z): {_turn(q)}; read in scipy's "
+        f"(x, y, z, w) order it would be {_turn(scipy_order)}. hapticd's quaternions are "
+        "(w, x, y, z): pass a scipy Rotation itself, or as_quat(scalar_first=True), or a "
+        "3x3 matrix to say it unambiguously",
+        QuaternionOrderWarning,
+        stacklevel=_outside_the_package(),
+    )
+
+
+def _outside_the_package() -> int:
+    """The warnings stacklevel, for the function that calls this one, of the first
+    frame outside the hapticd package: the user's line that gave the value."""
+    package = os.path.dirname(os.path.abspath(__file__))
+    level = 1
+    frame: FrameType | None = sys._getframe(1)
+    while frame is not None and frame.f_code.co_filename.startswith(package):
+        frame = frame.f_back
+        level += 1
+    return level
 
 
 def rotation_to_quaternion(rotation: FloatArray) -> FloatArray:

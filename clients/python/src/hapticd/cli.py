@@ -2,7 +2,11 @@
 
     scene load FILE      add the objects of a JSON scene file, or one mesh file
     scene show           print the scene as JSON
+    scene export FILE    write the scene to a scene file (what scene load and
+                         hapticd --scene read back to the same scene)
     scene clear          remove every object
+    view                 the scene and the sessions live in the browser (hapticd.view);
+                         one JSON line with the page's URL, another when it stops
     demo                 a simulated hand strokes the scene over UDP; one JSON line
     bench latency        round-trip percentiles of a still device; one JSON line
     ur-bridge            a Universal Robots arm as an admittance device; one JSON line
@@ -22,6 +26,7 @@ import argparse
 import json
 import os
 import pathlib
+import signal
 import ssl
 import sys
 from collections.abc import Sequence
@@ -34,7 +39,17 @@ from hapticd._connection import parse_address
 from hapticd.client import Client, connect
 from hapticd.demo import Trace, plot_trace, run_demo, run_latency_bench
 from hapticd.errors import HapticdError, LocalError
-from hapticd.objects import DEFAULT_STIFFNESS, Material, Mesh, ObjectSpec, Pose
+from hapticd.objects import (
+    DEFAULT_STIFFNESS,
+    Box,
+    Capsule,
+    Convex,
+    Material,
+    Mesh,
+    ObjectSpec,
+    Pose,
+    Sphere,
+)
 from hapticd.results import ObjectInfo, SceneInfo
 from hapticd.scene_files import MESH_SUFFIXES, read_mesh_file, read_scene_file
 
@@ -111,6 +126,32 @@ def build_parser() -> argparse.ArgumentParser:
     _server_options(show)
     clear = scene_commands.add_parser("clear", help="remove every object", allow_abbrev=False)
     _server_options(clear)
+    export = scene_commands.add_parser(
+        "export", help="write the scene to a scene file", allow_abbrev=False
+    )
+    export.add_argument("file", help="the JSON scene file to write (replaced if it exists)")
+    _server_options(export)
+
+    view = commands.add_parser(
+        "view", help="show the scene and sessions live in the browser", allow_abbrev=False
+    )
+    view.add_argument(
+        "--port", type=int, default=8080, help="the page's port on 127.0.0.1 (0: any free one)"
+    )
+    view.add_argument(
+        "--rate-hz", type=_positive, default=30.0, help="telemetry rate, in [1, 60] (default 30)"
+    )
+    view.add_argument(
+        "--force-scale",
+        type=_positive,
+        default=0.01,
+        metavar="M_PER_N",
+        help="force arrows' length per newton, in (0, 1] m/N (default %(default)s)",
+    )
+    view.add_argument(
+        "--seconds", type=_positive, help="stop after this long (default: until interrupted)"
+    )
+    _server_options(view)
 
     demo = commands.add_parser(
         "demo", help="stroke the scene with a simulated device", allow_abbrev=False
@@ -233,7 +274,32 @@ def _object_json(info: ObjectInfo) -> dict[str, Any]:
         "topology": info.topology,
         "rewound_triangles": info.rewound_triangles,
         "warnings": list(info.warnings),
+        "parameters": _shape_json(info),
+        "velocity": _vector(info.velocity),
+        "angular_velocity": _vector(info.angular_velocity),
+        "pinned_representation": info.pinned_representation,
+        "mesh_pose": None
+        if info.mesh_pose is None
+        else {
+            "position": _vector(info.mesh_pose.position),
+            "orientation": _vector(info.mesh_pose.orientation),
+        },
+        "shape_digest": f"{info.shape_digest:016x}",
     }
+
+
+def _shape_json(info: ObjectInfo) -> dict[str, Any]:
+    """The represented shape's parameters (a mesh's counts: its data is not read here)."""
+    shape = info.represented
+    if isinstance(shape, Sphere):
+        return {"radius": shape.radius}
+    if isinstance(shape, Box):
+        return {"half_extents": _vector(shape.half_extents)}
+    if isinstance(shape, Capsule):
+        return {"radius": shape.radius, "half_length": shape.half_length}
+    if isinstance(shape, Convex):
+        return {"points": [_vector(point) for point in shape.points]}
+    return {}
 
 
 def scene_json(scene: SceneInfo) -> dict[str, Any]:
@@ -263,13 +329,22 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
     bridge = ur_bridge.options_from(args) if args.command == "ur-bridge" else None
     if args.command == "demo" and args.plot and not pathlib.Path(args.plot).parent.is_dir():
         raise LocalError(f"--plot {args.plot!r}: its directory does not exist")
+    exporting = args.command == "scene" and args.scene_command == "export"
+    if exporting and not pathlib.Path(args.file).resolve().parent.is_dir():
+        raise LocalError(f"scene export {args.file!r}: its directory does not exist")
     with _connect(args) as client:
         if args.command == "scene":
             if args.scene_command == "load":
                 return _load(client, specs, args.replace)
             if args.scene_command == "clear":
                 return {"scene_version": client.clear_scene()}
+            if exporting:
+                scene = client.export_scene(args.file)
+                names = [info.name for info in scene.objects]
+                return {"exported": args.file, "objects": names, "scene_version": scene.version}
             return scene_json(client.scene())
+        if args.command == "view":
+            return _view(client, args)
         if args.command == "demo":
             trace = Trace() if args.plot else None
             summary = run_demo(
@@ -286,6 +361,40 @@ def _run(args: argparse.Namespace) -> dict[str, Any]:
         if bridge is not None:
             return ur_bridge.run_bridge(bridge, client)
         return run_latency_bench(client, args.seconds, rate_hz=args.rate_hz)
+
+
+def _view(client: Client, args: argparse.Namespace) -> dict[str, Any]:
+    """view: serves the page, prints its URL, and follows the server until interrupted,
+    --seconds pass, or the server fails; what the view did."""
+    try:
+        from hapticd import view  # viser and scipy, only for this command
+    except ImportError as exc:
+        raise LocalError(
+            f"the view needs viser and scipy ({exc}): pip install 'hapticd[view]'"
+        ) from exc
+
+    handle = view.serve(
+        client, port=args.port, rate_hz=args.rate_hz, force_scale_m_per_n=args.force_scale
+    )
+    print(json.dumps({"url": handle.url}), flush=True)
+    reason = "seconds"
+    # SIGTERM (a service manager's stop) ends the view as Ctrl-C does
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
+    try:
+        handle.wait(args.seconds)
+        handle.stop()
+        if handle.error is not None:
+            raise handle.error
+    except KeyboardInterrupt:
+        handle.stop()
+        reason = "interrupted"
+    counters = handle.counters
+    return {
+        "stopped": reason,
+        "samples": counters.samples,
+        "scene_reads": counters.scene_reads,
+        "mesh_reads": counters.mesh_reads,
+    }
 
 
 def main(argv: Sequence[str] | None = None) -> int:

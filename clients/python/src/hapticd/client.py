@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import collections
 import functools
+import pathlib
 import ssl
 import threading
 from collections.abc import Callable, Iterable, Iterator
@@ -45,6 +46,8 @@ from hapticd.results import (
     Telemetry,
 )
 from hapticd.scene_edits import SceneEditor, SceneEdits
+from hapticd.scene_files import write_scene_file
+from hapticd.scene_readback import read_whole_scene
 from hapticd.v1 import hapticd_pb2 as pb
 
 PROTOCOL_VERSION = 1
@@ -187,10 +190,37 @@ class Client(ClosesOnExit, SceneEditor):
         """Removes every object."""
         return self._edit("clear_scene", pb.ClearScene(), timeout_s)
 
-    def scene(self, *, timeout_s: float | None = None) -> SceneInfo:
-        """The scene as the server holds it now."""
-        reply = self._call("get_scene", pb.GetScene(), timeout_s)
+    def scene(
+        self,
+        *,
+        include_mesh_data: bool = False,
+        mesh_data_for: Iterable[str] = (),
+        timeout_s: float | None = None,
+    ) -> SceneInfo:
+        """The scene as the server holds it now (ObjectInfo: each object's shape,
+        representation, pose, material, motion). The vertices and triangles of the
+        objects given as meshes come with include_mesh_data (all of them) or for the
+        objects named in mesh_data_for, not both: at most 48 MiB of them per request
+        (24 bytes a vertex, 12 a triangle; RemoteError RESOURCE_EXHAUSTED naming the
+        bytes over it, NOT_FOUND for a name the scene lacks). export_scene reads any
+        amount."""
+        names = [check.object_name(name, "mesh_data_for[]") for name in mesh_data_for]
+        if include_mesh_data and names:
+            raise LocalError("give include_mesh_data or mesh_data_for, not both")
+        message = codec.get_scene_message(check.flag(include_mesh_data, "include_mesh_data"), names)
+        reply = self._call("get_scene", message, timeout_s)
         return _decoded(codec.scene_from, _body(reply, "scene", pb.SceneDescription))
+
+    def export_scene(
+        self, path: str | pathlib.Path, *, timeout_s: float | None = None
+    ) -> SceneInfo:
+        """Writes the scene to a scene file (the format scene load and hapticd --scene
+        read) that reads back to the same scene: every object as it was given (a mesh
+        with its vertices and triangles, pinned as it was), its pose, material, motion,
+        and the scene's tolerance. Returns the scene written."""
+        scene = read_whole_scene(functools.partial(self.scene, timeout_s=timeout_s))
+        write_scene_file(path, [info.spec() for info in scene.objects], scene.tolerance)
+        return scene
 
     # ---- queries ----
 

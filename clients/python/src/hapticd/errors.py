@@ -60,3 +60,9 @@ class SessionEnded(HapticdError):
 
 class Timeout(HapticdError, TimeoutError):
     """No answer arrived within the caller's timeout."""
+
+
+class QuaternionOrderWarning(UserWarning):
+    """A rotation was given as a quaternion that may be in scipy's (x, y, z, w) order;
+    hapticd reads (w, x, y, z) (the rule: _validate.hint_quaternion_order). A warning,
+    not an error: the value is used as given."""

@@ -12,10 +12,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import trimesh
 from numpy.typing import ArrayLike
 
 from hapticd import _validate as check
-from hapticd._validate import FloatArray, IndexArray
+from hapticd._validate import FloatArray, IndexArray, RotationLike
 from hapticd.errors import LocalError
 
 REPRESENTATIONS = ("auto", "sphere", "box", "capsule", "convex", "mesh")
@@ -88,12 +89,16 @@ class Pose:
         object.__setattr__(self, "orientation", check.quaternion(self.orientation, "rotation"))
 
     @classmethod
-    def of(cls, position: ArrayLike = (0, 0, 0), rotation: ArrayLike | None = None) -> Pose:
+    def of(cls, position: ArrayLike = (0, 0, 0), rotation: RotationLike | None = None) -> Pose:
         """The pose at position with rotation: a quaternion (w, x, y, z), a 3x3 rotation
-        matrix (columns the body's axes in W) or None (identity)."""
+        matrix (columns the body's axes in W), a scipy.spatial.transform.Rotation or None
+        (identity). A quaternion that may be in scipy's (x, y, z, w) order gets a
+        QuaternionOrderWarning (the rule: _validate.hint_quaternion_order)."""
         return cls(
             check.vector3(position, "position"),
-            _identity() if rotation is None else check.quaternion(rotation, "rotation"),
+            _identity()
+            if rotation is None
+            else check.quaternion(rotation, "rotation", hint_order=True),
         )
 
     @property
@@ -171,6 +176,15 @@ class Mesh:
     representation: str = "auto"
     ray_backend: str = "default"
 
+    @classmethod
+    def from_trimesh(
+        cls, mesh: Any, representation: str = "auto", ray_backend: str = "default"
+    ) -> Mesh:
+        """The Mesh of a trimesh.Trimesh (its vertices and faces; a trimesh.Scene is
+        refused: concatenate its geometry first, scene.to_mesh())."""
+        vertices, triangles = trimesh_arrays(mesh, "mesh")
+        return cls(vertices, triangles, representation, ray_backend)
+
     def __post_init__(self) -> None:
         vertices = check.coordinates(check.points(self.vertices, "vertices", minimum=3), "vertices")
         object.__setattr__(self, "vertices", vertices)
@@ -179,6 +193,21 @@ class Mesh:
         )
         check.choice(self.representation, "representation", REPRESENTATIONS)
         check.choice(self.ray_backend, "ray_backend", RAY_BACKENDS)
+
+
+def trimesh_arrays(mesh: Any, name: str) -> tuple[FloatArray, IndexArray]:
+    """The vertices (N, 3) and faces (M, 3) of a trimesh.Trimesh; LocalError for anything
+    else, a trimesh.Scene (several meshes) named as such."""
+    if isinstance(mesh, trimesh.Scene):
+        raise LocalError(
+            f"{name} is a trimesh.Scene of {len(mesh.geometry)} geometries; give one "
+            "trimesh.Trimesh (scene.to_mesh() concatenates them)"
+        )
+    if not isinstance(mesh, trimesh.Trimesh):
+        raise LocalError(f"{name} is {type(mesh).__name__}; it must be a trimesh.Trimesh")
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    triangles = np.asarray(mesh.faces, dtype=np.int64)
+    return vertices, check.triangles(triangles, f"{name}.faces", len(vertices))
 
 
 Shape = Sphere | Box | Capsule | Plane | Convex | Mesh

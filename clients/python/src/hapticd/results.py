@@ -12,7 +12,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from hapticd._validate import FloatArray
-from hapticd.objects import Material, Pose
+from hapticd.errors import LocalError
+from hapticd.objects import Material, Mesh, ObjectSpec, Pose, Shape
 
 
 @dataclass(frozen=True, eq=False)
@@ -25,7 +26,18 @@ class ObjectInfo:
     ("closed", "open" or "non-orientable"; an open mesh is a surface: distances to it
     are unsigned and nothing is inside it), rewound_triangles (how many the server
     turned so that the normals point out), and warnings, one sentence each (rewound,
-    open, a pinned representation beyond the tolerance)."""
+    open, a pinned representation beyond the tolerance).
+
+    Read back: `represented`, the shape the server renders in the frame of `pose` (a
+    Sphere, Box, Capsule, Plane, the hull as a Convex of its vertices, or for an object
+    kept as a mesh its Mesh; None for that mesh when the scene was read without mesh
+    data); for an object given as a mesh, `mesh`, the mesh as validated (vertices as
+    given, triangles wound so the normals point out; its representation the one pinned,
+    "auto" when the server chose) in the frame of `mesh_pose` (None without mesh data),
+    `mesh_pose` (`pose` is mesh_pose composed with where the representation sits in
+    the mesh's frame) and `pinned_representation`; a kinematic object's velocity (m/s,
+    of mesh_pose's origin for a mesh, else of pose's) and angular_velocity (rad/s), both
+    in W; and shape_digest, which changes when the shape does (not when it moves)."""
 
     name: str
     shape: str
@@ -42,6 +54,40 @@ class ObjectInfo:
     topology: str = ""
     rewound_triangles: int = 0
     warnings: tuple[str, ...] = ()
+    represented: Shape | None = None
+    mesh: Mesh | None = None
+    mesh_pose: Pose | None = None
+    pinned_representation: str = ""
+    velocity: FloatArray = field(default_factory=lambda: np.zeros(3))
+    angular_velocity: FloatArray = field(default_factory=lambda: np.zeros(3))
+    shape_digest: int = 0
+
+    def spec(self) -> ObjectSpec:
+        """The ObjectSpec that adds this object again as it is (a mesh as given, pinned
+        as it was; a hull as its vertices); LocalError when the object was given as a
+        mesh and the scene was read without its mesh data (read it with
+        include_mesh_data=True or mesh_data_for=[name])."""
+        shape: Shape | None
+        pose = self.pose
+        if self.pinned_representation:
+            shape, pose = self.mesh, self.mesh_pose or self.pose
+        else:
+            shape = self.represented
+        if shape is None:
+            raise LocalError(
+                f"object {self.name!r} was given as a mesh and the scene was read without its "
+                "vertices and triangles; read it with include_mesh_data=True or "
+                f"mesh_data_for=[{self.name!r}]"
+            )
+        return ObjectSpec(
+            name=self.name,
+            shape=shape,
+            pose=pose,
+            material=self.material,
+            kinematic=self.kinematic,
+            velocity=self.velocity if self.kinematic else np.zeros(3),
+            angular_velocity=self.angular_velocity if self.kinematic else np.zeros(3),
+        )
 
 
 @dataclass(frozen=True)

@@ -17,11 +17,13 @@ from collections.abc import Mapping
 from typing import Any, TypedDict, Unpack
 
 import numpy as np
+import trimesh
 from google.protobuf.message import Message
 from numpy.typing import ArrayLike
 
 from hapticd import _codec as codec
 from hapticd import _validate as check
+from hapticd._validate import RotationLike
 from hapticd.errors import LocalError
 from hapticd.objects import (
     Box,
@@ -46,13 +48,15 @@ MAX_EDITS_PER_BATCH = 100_000
 
 class Placement(TypedDict, total=False):
     """Where an added object goes and how it feels: position (m, (3,)), rotation (a
-    quaternion (w, x, y, z) or a 3x3 matrix; None: identity), material (a Material or a
+    quaternion (w, x, y, z), a 3x3 matrix or a scipy.spatial.transform.Rotation; None:
+    identity; a quaternion that may be scipy's (x, y, z, w) gets a
+    QuaternionOrderWarning), material (a Material or a
     dict of its fields; None: the server's default, stiffness DEFAULT_STIFFNESS =
     1000 N/m), kinematic (a bool) with its velocity (m/s) and angular_velocity (rad/s),
     and the request's timeout_s. Any other keyword is refused (LocalError naming it)."""
 
     position: ArrayLike
-    rotation: ArrayLike | None
+    rotation: RotationLike | None
     material: Material | dict[str, Any] | None
     kinematic: bool
     velocity: ArrayLike
@@ -141,24 +145,37 @@ class SceneEditor:
     def add_mesh(
         self,
         name: str,
-        vertices: ArrayLike,
-        triangles: ArrayLike,
+        vertices: ArrayLike | trimesh.Trimesh,
+        triangles: ArrayLike | None = None,
         representation: str = "auto",
         ray_backend: str = "default",
         **placement: Unpack[Placement],
     ) -> int:
         """Adds a triangle mesh: vertices (m, (N, 3)) and triangles ((M, 3) integer vertex
-        indices, counter-clockwise seen from outside), rendered as `representation`
+        indices, counter-clockwise seen from outside), or a trimesh.Trimesh in place of
+        vertices (and no triangles: its faces are), rendered as `representation`
         ("auto": the cheapest within the scene's tolerance, or sphere, box, capsule,
         convex, mesh); kept as a mesh, its queries run on `ray_backend` ("default": the
         server's, "native" or "embree")."""
         _check_keywords("add_mesh", placement, ("representation", "ray_backend"))
-        mesh = Mesh(
-            check.as_floats(vertices, "vertices"),
-            check.as_indices(triangles, "triangles"),
-            representation,
-            ray_backend,
-        )
+        if isinstance(vertices, (trimesh.Trimesh, trimesh.Scene)):
+            if triangles is not None:
+                raise LocalError(
+                    "add_mesh got a trimesh.Trimesh and triangles; the Trimesh's faces are "
+                    "its triangles, so give no triangles"
+                )
+            mesh = Mesh.from_trimesh(vertices, representation, ray_backend)
+        else:
+            if triangles is None:
+                raise LocalError(
+                    "add_mesh got vertices and no triangles; give both, or a trimesh.Trimesh"
+                )
+            mesh = Mesh(
+                check.as_floats(vertices, "vertices"),
+                check.as_indices(triangles, "triangles"),
+                representation,
+                ray_backend,
+            )
         return self._add(name, mesh, placement)
 
     def add_mesh_file(
@@ -212,14 +229,14 @@ class SceneEditor:
         self,
         name: str,
         position: ArrayLike,
-        rotation: ArrayLike | None = None,
+        rotation: RotationLike | None = None,
         velocity: ArrayLike = (0, 0, 0),
         angular_velocity: ArrayLike = (0, 0, 0),
         *,
         timeout_s: float | None = None,
     ) -> int:
-        """Moves a kinematic object to a pose, with its velocities from now on (m/s,
-        rad/s); RemoteError if it is static."""
+        """Moves a kinematic object to a pose (rotation as in Placement), with its
+        velocities from now on (m/s, rad/s); RemoteError if it is static."""
         message = pb.MoveKinematic(
             name=check.object_name(name),
             pose=codec.pose_message(Pose.of(_check_position(position), rotation)),

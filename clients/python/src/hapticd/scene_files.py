@@ -15,6 +15,10 @@ area, a representation a mesh can be pinned to) is left to the server.
 
 Every problem raises LocalError naming the file and the field, e.g.
 "scene.json: scene.objects[1].shape.radius is -1.0; it must be a finite number > 0".
+
+The writer (write_scene_file, scene_document) writes what the readers read: meshes
+inline, rotations as matrices, numbers as Python's shortest exact repr, so a file
+written from a scene reads back to the same objects.
 """
 
 from __future__ import annotations
@@ -342,3 +346,80 @@ def _read_shape(
     if ray_backend is not None:
         check.choice(_string(ray_backend, "ray_backend"), "ray_backend", FILE_RAY_BACKENDS)
     return Mesh(vertices, triangles, representation or "auto", ray_backend or "default")
+
+
+# ---- writing ----
+
+
+def _object_document(spec: ObjectSpec) -> dict[str, Any]:
+    """One object of the scene section, as the readers read it back."""
+    shape = spec.shape
+    document: dict[str, Any] = {"name": spec.name}
+    if isinstance(shape, Sphere):
+        document["shape"] = {"type": "sphere", "radius": shape.radius}
+    elif isinstance(shape, Box):
+        document["shape"] = {"type": "box", "half_extents": shape.half_extents.tolist()}
+    elif isinstance(shape, Capsule):
+        document["shape"] = {
+            "type": "capsule",
+            "radius": shape.radius,
+            "half_length": shape.half_length,
+        }
+    elif isinstance(shape, Plane):
+        document["shape"] = {"type": "plane"}
+    elif isinstance(shape, Convex):
+        document["shape"] = {"type": "convex", "points": shape.points.tolist()}
+    else:
+        document["shape"] = {
+            "type": "mesh",
+            "vertices": shape.vertices.tolist(),
+            "triangles": shape.triangles.astype(np.int64).tolist(),
+        }
+    document["position"] = spec.pose.position.tolist()
+    document["rotation"] = spec.pose.rotation.tolist()
+    material = spec.material
+    document["material"] = {
+        "stiffness": material.stiffness,
+        "damping": material.damping,
+        "static_friction": material.static_friction,
+        "dynamic_friction": material.dynamic_friction,
+    }
+    if material.force_shading is not None:
+        document["material"]["force_shading"] = material.force_shading
+    if spec.kinematic:
+        document["motion"] = {
+            "velocity": spec.velocity.tolist(),
+            "angular_velocity": spec.angular_velocity.tolist(),
+        }
+    if isinstance(shape, Mesh):
+        if shape.representation != "auto":
+            document["representation"] = shape.representation
+        if shape.ray_backend != "default":
+            document["ray_backend"] = shape.ray_backend
+    return document
+
+
+def scene_document(objects: list[ObjectSpec], tolerance: float | None = None) -> dict[str, Any]:
+    """The JSON document of a scene file holding objects (and the scene's tolerance, m,
+    when given)."""
+    scene: dict[str, Any] = {"objects": [_object_document(spec) for spec in objects]}
+    if tolerance is not None:
+        scene["tolerance"] = check.positive(tolerance, "tolerance")
+    return {"scene": scene}
+
+
+def write_scene_file(
+    path: str | pathlib.Path, objects: list[ObjectSpec], tolerance: float | None = None
+) -> None:
+    """Writes a scene file that read_scene_file and hapticd --scene read back to objects;
+    atomically (a temporary file beside it, renamed), so a failed write leaves any
+    earlier file as it was. LocalError when the file cannot be written."""
+    file = pathlib.Path(path)
+    text = json.dumps(scene_document(objects, tolerance), allow_nan=False)
+    temporary = file.with_name(f".{file.name}.partial")
+    try:
+        temporary.write_text(text + "\n")
+        temporary.replace(file)
+    except OSError as exc:
+        temporary.unlink(missing_ok=True)
+        raise LocalError(f"scene file {str(file)!r} cannot be written: {exc.strerror}") from exc
