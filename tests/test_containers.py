@@ -12,6 +12,10 @@ import time
 
 import pytest
 
+# the first test builds the image: minutes on a fresh machine (README), more while the
+# machine is busy, beyond pytest.ini's 600 s per test
+pytestmark = pytest.mark.timeout(1800)
+
 REPO = pathlib.Path(__file__).resolve().parent.parent
 IMAGE = "localhost/hapticd:latest"
 ENV = {**os.environ, "CONTAINERS_CONF": str(REPO / "deploy" / "containers" / "containers.conf")}
