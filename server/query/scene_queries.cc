@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include "server/geometry/work_meter.h"
 #include "server/query/neighbourhood.h"
@@ -120,6 +122,65 @@ SceneSweep SweepSphereSceneAmong(const scene::SceneSnapshot& scene, const Object
   return first;
 }
 
+// Appends each object a sphere of radius r at c_W touches (FindObjectContacts's rule)
+// to out, in scene order; near is scratch for the objects' indices.
+void AppendObjectContacts(const scene::SceneSnapshot& scene, const Vector3& c_W, double r, std::vector<int>& near,
+                          std::vector<SceneContact>& out) {
+  if (!c_W.allFinite() || !(r >= 0)) return;
+  near.clear();
+  scene.ForEachObjectNear({c_W - Vector3::Constant(r), c_W + Vector3::Constant(r)}, [&](int i) {
+    near.push_back(i);
+    return true;
+  });
+  std::sort(near.begin(), near.end());
+  for (const int i : near) {
+    const scene::SceneObject& object = scene.object(i);
+    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(c_W), r);
+    if (!probe.found || probe.signed_distance > r) continue;
+    out.push_back(ContactInWorld(object, i, probe, r));
+  }
+}
+
+// A lower bound on the signed distance from p to any object inside box: the distance
+// to the box from outside it; from inside, minus the distance to its boundary (no solid
+// inside the box reaches deeper).
+double SignedDistanceBound(const geometry::Aabb& box, const Vector3& p) {
+  const double outside_sq = DistanceSquaredToBox(box, p);
+  if (outside_sq > 0) return std::sqrt(outside_sq);
+  return -(p - box.min).cwiseMin(box.max - p).minCoeff();
+}
+
+// FindDeepestContact(scene, p_W, 0, max_gap), nearest first: the same objects are
+// candidates and each is probed the same way, but in the order of their bound on the
+// signed distance (SignedDistanceBound), stopping at the first whose bound is above
+// the nearest found; no object left can be nearer, or as near and earlier in the scene
+// (equal bounds are still probed). So a point near a few objects probes only those,
+// whatever else lies within max_gap. order is scratch.
+SceneContact FindNearestSurface(const scene::SceneSnapshot& scene, const Vector3& p_W, double max_gap,
+                                std::vector<std::pair<double, int>>& order) {
+  SceneContact nearest;
+  if (!p_W.allFinite() || !(max_gap >= 0)) return nearest;
+  order.clear();
+  scene.ForEachObjectNear({p_W - Vector3::Constant(max_gap), p_W + Vector3::Constant(max_gap)}, [&](int i) {
+    const geometry::Aabb& box = scene.object(i).bounds_W;
+    // FindDeepestContactAmong's candidates: boxes within reach
+    if (DistanceSquaredToBox(box, p_W) <= max_gap * max_gap) order.emplace_back(SignedDistanceBound(box, p_W), i);
+    return true;
+  });
+  std::sort(order.begin(), order.end());
+  for (const auto& [bound, i] : order) {
+    if (nearest.object >= 0 && bound > -nearest.depth) break;
+    const scene::SceneObject& object = scene.object(i);
+    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(p_W), max_gap);
+    if (!probe.found || -probe.signed_distance < -max_gap) continue;
+    // the deepest (nearest); of equally deep ones, the first in the scene
+    const double depth = -probe.signed_distance;
+    if (nearest.object >= 0 && (depth < nearest.depth || (depth == nearest.depth && i > nearest.object))) continue;
+    nearest = ContactInWorld(object, i, probe, 0);
+  }
+  return nearest;
+}
+
 }  // namespace
 
 SceneContact FindDeepestContact(const scene::SceneSnapshot& scene, const Vector3& c_W, double r,
@@ -195,14 +256,31 @@ void CastSegments(const scene::SceneSnapshot& scene, std::span<const Vector3> a_
 
 std::vector<SceneContact> FindObjectContacts(const scene::SceneSnapshot& scene, const Vector3& c_W, double r) {
   std::vector<SceneContact> contacts;
-  if (!c_W.allFinite() || !(r >= 0)) return contacts;
-  for (const int i : scene.ObjectsNear({c_W - Vector3::Constant(r), c_W + Vector3::Constant(r)})) {
-    const scene::SceneObject& object = scene.object(i);
-    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(c_W), r);
-    if (!probe.found || probe.signed_distance > r) continue;
-    contacts.push_back(ContactInWorld(object, i, probe, r));
-  }
+  std::vector<int> near;
+  AppendObjectContacts(scene, c_W, r, near, contacts);
   return contacts;
+}
+
+void FindClosestPoints(const scene::SceneSnapshot& scene, std::span<const Vector3> p_W, double max_distance,
+                       std::span<SceneContact> out) {
+  const std::size_t n = std::min(p_W.size(), out.size());
+  std::vector<std::pair<double, int>> order;
+  for (std::size_t i = 0; i < n; ++i) out[i] = FindNearestSurface(scene, p_W[i], max_distance, order);
+}
+
+bool FindObjectContactsBatch(const scene::SceneSnapshot& scene, std::span<const Vector3> c_W,
+                             std::span<const double> r, std::size_t max_contacts, std::vector<SceneContact>& out,
+                             std::span<int> counts) {
+  const std::size_t n = std::min({c_W.size(), counts.size(), r.size() == 1 ? c_W.size() : r.size()});
+  std::vector<int> near;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t before = out.size();
+    AppendObjectContacts(scene, c_W[i], r.size() == 1 ? r[0] : r[i], near, out);
+    // refuse rather than answer past the bound
+    if (out.size() > max_contacts) return false;
+    counts[i] = static_cast<int>(out.size() - before);
+  }
+  return true;
 }
 
 FeatureSet::FeatureSet(int capacity) : features_(std::max(capacity, 0)), scratch_(std::max(capacity, 0)) {}
