@@ -141,37 +141,63 @@ void AppendObjectContacts(const scene::SceneSnapshot& scene, const Vector3& c_W,
   }
 }
 
-// A lower bound on the signed distance from p to any object inside box: the distance
-// to the box from outside it; from inside, minus the distance to its boundary (no solid
-// inside the box reaches deeper).
-double SignedDistanceBound(const geometry::Aabb& box, const Vector3& p) {
-  const double outside_sq = DistanceSquaredToBox(box, p);
-  if (outside_sq > 0) return std::sqrt(outside_sq);
-  return -(p - box.min).cwiseMin(box.max - p).minCoeff();
-}
+// A candidate of FindNearestSurface: an object, whether it is a mesh (a dear probe),
+// and a lower bound on its signed distance from the point: the distance to its box from
+// outside the box; from inside, minus the distance to the box's boundary (no solid
+// inside the box reaches deeper). Ordered primitives first, then by bound, then by
+// object.
+struct NearCandidate {
+  bool mesh;
+  double bound;
+  int object;
+  bool operator<(const NearCandidate& other) const {
+    return std::tie(mesh, bound, object) < std::tie(other.mesh, other.bound, other.object);
+  }
+};
 
 // FindDeepestContact(scene, p_W, 0, max_gap), nearest first: the same objects are
-// candidates and each is probed the same way, but in the order of their bound on the
-// signed distance (SignedDistanceBound), stopping at the first whose bound is above
-// the nearest found; no object left can be nearer, or as near and earlier in the scene
-// (equal bounds are still probed). So a point near a few objects probes only those,
+// candidates, but probed cheapest and nearest first, each only as far as the nearest
+// surface found so far, and not at all when its bound (NearCandidate) is above that:
+// such an object cannot be nearer, nor as near and earlier in the scene (an object
+// whose bound equals it is still probed). The primitives and hulls go first, then the
+// meshes in the order of their bounds, so that the cheap probes tighten the reach of
+// the dear ones and a point near a few objects probes only those, and not far,
 // whatever else lies within max_gap. order is scratch.
 SceneContact FindNearestSurface(const scene::SceneSnapshot& scene, const Vector3& p_W, double max_gap,
-                                std::vector<std::pair<double, int>>& order) {
+                                std::vector<NearCandidate>& order) {
   SceneContact nearest;
   if (!p_W.allFinite() || !(max_gap >= 0)) return nearest;
   order.clear();
   scene.ForEachObjectNear({p_W - Vector3::Constant(max_gap), p_W + Vector3::Constant(max_gap)}, [&](int i) {
-    const geometry::Aabb& box = scene.object(i).bounds_W;
+    const scene::SceneObject& object = scene.object(i);
     // FindDeepestContactAmong's candidates: boxes within reach
-    if (DistanceSquaredToBox(box, p_W) <= max_gap * max_gap) order.emplace_back(SignedDistanceBound(box, p_W), i);
+    const double outside_sq = DistanceSquaredToBox(object.bounds_W, p_W);
+    if (outside_sq > max_gap * max_gap) return true;
+    const double bound = outside_sq > 0 ? std::sqrt(outside_sq)
+                                        : -(p_W - object.bounds_W.min).cwiseMin(object.bounds_W.max - p_W).minCoeff();
+    order.push_back({scene::TypeOf(object.shape) == scene::ShapeType::kMesh, bound, i});
     return true;
   });
-  std::sort(order.begin(), order.end());
-  for (const auto& [bound, i] : order) {
-    if (nearest.object >= 0 && bound > -nearest.depth) break;
+  // a handful as a rule: an insertion sort
+  for (std::size_t k = 1; k < order.size(); ++k) {
+    const NearCandidate held = order[k];
+    std::size_t j = k;
+    for (; j > 0 && held < order[j - 1]; --j) order[j] = order[j - 1];
+    order[j] = held;
+  }
+  for (const NearCandidate& candidate : order) {
+    if (nearest.object >= 0 && candidate.bound > -nearest.depth) {
+      // the meshes are in the order of their bounds: none after this one can be nearer
+      if (candidate.mesh) break;
+      continue;
+    }
+    // only a surface as near as the nearest so far can matter: a probe looks no farther
+    // (a probe's answer does not depend on its reach once it finds the surface within
+    // it; a point deeper inside a solid is found by the inside test whatever the reach)
+    const double reach = nearest.object >= 0 ? std::min(max_gap, std::abs(nearest.depth)) : max_gap;
+    const int i = candidate.object;
     const scene::SceneObject& object = scene.object(i);
-    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(p_W), max_gap);
+    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(p_W), reach);
     if (!probe.found || -probe.signed_distance < -max_gap) continue;
     // the deepest (nearest); of equally deep ones, the first in the scene
     const double depth = -probe.signed_distance;
@@ -264,7 +290,7 @@ std::vector<SceneContact> FindObjectContacts(const scene::SceneSnapshot& scene, 
 void FindClosestPoints(const scene::SceneSnapshot& scene, std::span<const Vector3> p_W, double max_distance,
                        std::span<SceneContact> out) {
   const std::size_t n = std::min(p_W.size(), out.size());
-  std::vector<std::pair<double, int>> order;
+  std::vector<NearCandidate> order;
   for (std::size_t i = 0; i < n; ++i) out[i] = FindNearestSurface(scene, p_W[i], max_distance, order);
 }
 
