@@ -21,13 +21,13 @@ assert hapticd.__version__ == expected_version, (hapticd.__version__, expected_v
 
 # an object through the codec and back
 spec = hapticd.ObjectSpec(
-    "ball", hapticd.Sphere(0.05), pose=hapticd.Pose.of((0.1, 0.2, 0.3), (0, 0, 0, 1)),
+    "ball", hapticd.Sphere(0.05), pose=hapticd.Pose.of((0.1, 0.2, 0.3), (0, 1, 0, 0)),
     material=hapticd.Material(1500, damping=2),
 )
 message = pb.Object.FromString(codec.object_message(spec).SerializeToString())
 assert message.name == "ball" and message.shape.sphere.radius == 0.05
 pose = codec.pose_from(message.pose)
-assert pose.position.tolist() == [0.1, 0.2, 0.3] and pose.orientation.tolist() == [0, 0, 0, 1]
+assert pose.position.tolist() == [0.1, 0.2, 0.3] and pose.orientation.tolist() == [0, 1, 0, 0]
 assert codec.material_from(message.material) == spec.material
 
 # a batch query through the protocol core: request out, reply in, numpy arrays out
