@@ -12,6 +12,8 @@ RUN apt-get update -qq \
  && rm -rf /var/lib/apt/lists/*
 WORKDIR /opt/hapticd
 COPY CMakeLists.txt ./
+# the version (CMakeLists.txt reads it from the Python package's pyproject.toml)
+COPY clients/python/pyproject.toml clients/python/
 COPY proto proto
 COPY server server
 COPY clients/cpp clients/cpp

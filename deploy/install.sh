@@ -30,13 +30,29 @@ if [[ ! -x "$venv/bin/python" ]] || [[ "$(cat "$stamp" 2>/dev/null)" != "$want" 
   echo "$want" > "$stamp"
 fi
 
+# The wheels a clean environment installs the package from (deploy/check_package.sh,
+# offline): the package's own dependencies and setuptools to build it, pinned as above.
+wheelhouse="$venv/wheelhouse"
+if [[ "$(cat "$wheelhouse/.requirements.sha256" 2>/dev/null)" != "$want" ]]; then
+  echo "install: the package's wheels in .venv/wheelhouse/" >&2
+  mapfile -t pins < <(grep -E '^(setuptools|protobuf|numpy|trimesh|matplotlib)==' "$requirements")
+  "$venv/bin/pip" download --quiet --disable-pip-version-check --dest "$wheelhouse" "${pins[@]}"
+  echo "$want" > "$wheelhouse/.requirements.sha256"
+fi
+
 # The protocol's Python code, from the same .proto and the same protoc as the C++ code,
 # then the hapticd package itself (editable: clients/python/src is what runs; installed
-# again when the environment's package is another checkout's).
+# again when the environment's package is another checkout's, or another version: its
+# metadata gives hapticd.__version__).
 protoc -I "$repo/proto" --python_out="$repo/clients/python/src" --pyi_out="$repo/clients/python/src" \
   "$repo/proto/hapticd/v1/hapticd.proto"
-if ! "$venv/bin/python" -c 'import hapticd, pathlib, sys
-sys.exit(pathlib.Path(hapticd.__file__).resolve().is_relative_to(pathlib.Path(sys.argv[1]).resolve()) is False)' \
-  "$repo/clients/python/src" 2>/dev/null; then
+if ! "$venv/bin/python" - "$repo/clients/python" 2>/dev/null <<'PYTHON'; then
+import importlib.metadata, pathlib, sys, tomllib
+root = pathlib.Path(sys.argv[1]).resolve()
+import hapticd
+want = tomllib.loads((root / "pyproject.toml").read_text())["project"]["version"]
+here = pathlib.Path(hapticd.__file__).resolve().is_relative_to(root / "src")
+sys.exit(0 if here and importlib.metadata.version("hapticd") == want else 1)
+PYTHON
   "$venv/bin/pip" install --quiet --disable-pip-version-check --no-deps -e "$repo/clients/python"
 fi

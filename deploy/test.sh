@@ -26,6 +26,9 @@ done
 echo "== Python package: lint, types, unit tests"
 (cd clients/python && ../../.venv/bin/ruff check src tests && ../../.venv/bin/mypy)
 .venv/bin/python -m pytest -q clients/python/tests
+echo "== Python package: its wheel in a clean environment, its API guide (mkdocs --strict)"
+bash deploy/check_package.sh
+.venv/bin/mkdocs build --strict -f clients/python/mkdocs.yml
 echo "== end-to-end tests"
 .venv/bin/python -m pytest -q tests
 echo "== end-to-end server tests against the ASan+UBSan build"

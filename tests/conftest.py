@@ -1,11 +1,16 @@
-"""Shared fixtures for the end-to-end tests: paths to the built binaries and shared/."""
+"""Shared fixtures for the end-to-end tests: paths to the built binaries and shared/,
+a server, and `connect`: each test that takes it runs with the blocking Client and with
+the AsyncClient (the package's test helper clients/python/tests/blocking_async.py)."""
 import os
 import pathlib
+import sys
 
 import pytest
 from server_process import running_server
 
 REPO = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(REPO / "clients" / "python" / "tests"))
+from blocking_async import CONNECTS  # noqa: E402
 
 
 @pytest.fixture(scope="session")
@@ -27,3 +32,9 @@ def server(bin_dir):
     """A hapticd process on its default scene for one test module (server_process.py)."""
     with running_server(bin_dir, "--log-level", "warning") as process:
         yield process
+
+
+@pytest.fixture(params=sorted(CONNECTS))
+def connect(request):
+    """hapticd.connect, or connect_async behind a blocking wrapper: the same calls."""
+    return CONNECTS[request.param]

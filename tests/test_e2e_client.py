@@ -2,7 +2,8 @@
 DeviceSession or a client's with block closes the server's sessions it opened; a
 partial set_material keeps the fields it does not name; threads sharing one client
 each get their own large replies; and when the server dies, every later call says the
-connection is closed (ConnectionClosed), not that the caller misused the API."""
+connection is closed (ConnectionClosed), not that the caller misused the API. Each
+runs with the blocking Client and with the AsyncClient (the `connect` fixture)."""
 
 import threading
 import time
@@ -18,8 +19,8 @@ LONG_TIMEOUT_S = 60.0  # a session timeout no test waits for
 
 
 @pytest.fixture
-def client(server):
-    with hapticd.connect(server.tcp, timeout_s=10) as connected:
+def client(server, connect):
+    with connect(server.tcp, timeout_s=10) as connected:
         yield connected
 
 
@@ -42,7 +43,7 @@ def closed_on_the_server(client, session_id):
     return True
 
 
-def test_leaving_a_device_session_closes_its_session_on_the_server(server, client):
+def test_leaving_a_device_session_closes_its_session_on_the_server(server, client, connect):
     timed_out = client.stats().counters.sessions_timed_out
     info = client.open_session("impedance", start=ABOVE, session_timeout_s=LONG_TIMEOUT_S)
     with hapticd.DeviceSession(info) as device:
@@ -50,16 +51,16 @@ def test_leaving_a_device_session_closes_its_session_on_the_server(server, clien
         # active, or ramping when this machine stalled past the 50 ms watchdog: it has states
         assert session_state(client, info.session_id) in ("active", "ramping")
     # closed by CloseSession, long before its timeout could have reclaimed it
-    with hapticd.connect(server.tcp, timeout_s=10) as other:
+    with connect(server.tcp, timeout_s=10) as other:
         assert wait_until(lambda: closed_on_the_server(other, info.session_id), 5.0)
     assert client.stats().counters.sessions_timed_out == timed_out
     # closing it again from the client that closed it is quiet
     client.close_session(info.session_id)
 
 
-def test_leaving_a_client_closes_the_sessions_it_opened_and_no_others(server, client):
+def test_leaving_a_client_closes_the_sessions_it_opened_and_no_others(server, client, connect):
     theirs = client.open_session("impedance", start=ABOVE, session_timeout_s=LONG_TIMEOUT_S)
-    with hapticd.connect(server.tcp, timeout_s=10) as owner:
+    with connect(server.tcp, timeout_s=10) as owner:
         waiting = owner.open_session("impedance", start=ABOVE, session_timeout_s=LONG_TIMEOUT_S)
         active = owner.open_session("impedance", start=ABOVE, session_timeout_s=LONG_TIMEOUT_S)
         device = hapticd.DeviceSession(active)
@@ -139,10 +140,10 @@ def test_threads_sharing_one_client_each_get_their_own_large_replies(client):
     assert not client.closed and client.scene().object("floor")
 
 
-def test_a_server_that_dies_gives_connection_closed_every_time(bin_dir):
+def test_a_server_that_dies_gives_connection_closed_every_time(bin_dir, connect):
     process = ServerProcess(bin_dir, "--log-level", "error")
     try:
-        client = hapticd.connect(process.tcp, timeout_s=5)
+        client = connect(process.tcp, timeout_s=5)
         subscription = client.subscribe(20)
         next(subscription)
         process.process.kill()
@@ -168,12 +169,12 @@ def test_a_server_that_dies_gives_connection_closed_every_time(bin_dir):
             process.process.wait()
 
 
-def test_another_connection_closes_a_session_only_with_its_key(server):
+def test_another_connection_closes_a_session_only_with_its_key(server, connect):
     # Sessions belong to the connection that opened them; the same client after a
     # reconnection proves it is the owner with the session's key.
-    with hapticd.connect(server.tcp, timeout_s=10) as first:
+    with connect(server.tcp, timeout_s=10) as first:
         info = first.open_session("impedance", start=(0, 0, 0.5), session_timeout_s=30)
-        with hapticd.connect(server.tcp, timeout_s=10) as second:
+        with connect(server.tcp, timeout_s=10) as second:
             with pytest.raises(hapticd.RemoteError) as refused:
                 second.close_session(info.session_id)
             assert refused.value.code == "PERMISSION_DENIED"

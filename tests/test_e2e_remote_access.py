@@ -1,6 +1,7 @@
 """Off loopback the control channel needs TLS and the access token: the server refuses
 to start without them, and an untrusted peer must Hello with the token before anything
-else. The realtime channel needs neither: its datagrams carry the session key's tag."""
+else. The realtime channel needs neither: its datagrams carry the session key's tag.
+The Python side runs with the blocking Client and with the AsyncClient (`connect`)."""
 
 import json
 import socket
@@ -45,7 +46,7 @@ def test_leaving_loopback_without_tls_and_a_token_is_refused(bin_dir):
     assert "--host is 0.0.0.0, not loopback" in done.stderr and "--access-token-file" in done.stderr
 
 
-def test_a_remote_peer_must_hello_with_the_token(bin_dir, tmp_path):
+def test_a_remote_peer_must_hello_with_the_token(bin_dir, tmp_path, connect):
     address = local_address()
     cert, key = make_certificate(tmp_path, address)
     token_file = tmp_path / "token"
@@ -56,10 +57,19 @@ def test_a_remote_peer_must_hello_with_the_token(bin_dir, tmp_path):
         assert server.tcp.startswith(address + ":")
         tls = ssl.create_default_context(cafile=str(cert))
 
+        # No TLS, or a CA that does not vouch for the server: refused before any Hello.
+        with pytest.raises(hapticd.LocalError, match=f"address {server.tcp} is not loopback"):
+            connect(server.tcp, access_token=TOKEN)
+        (tmp_path / "other").mkdir()
+        other_cert, _ = make_certificate(tmp_path / "other", address)
+        untrusted = ssl.create_default_context(cafile=str(other_cert))
+        with pytest.raises(hapticd.ConnectionClosed, match=f"TLS handshake with {server.tcp} failed"):
+            connect(server.tcp, tls=untrusted, access_token=TOKEN)
+
         # No token, then a wrong one: refused by name, and nothing else is served.
         for token in ("", "not-the-token-at-all"):
             with pytest.raises(hapticd.RemoteError) as refused:
-                hapticd.connect(server.tcp, tls=tls, access_token=token)
+                connect(server.tcp, tls=tls, access_token=token)
             assert refused.value.code == "UNAUTHENTICATED"
             assert "access_token is not this server's token" in refused.value.message
 
@@ -77,8 +87,11 @@ def test_a_remote_peer_must_hello_with_the_token(bin_dir, tmp_path):
         raw.close()
 
         # With the token: scene, a session, and its datagrams over the machine's address.
-        with hapticd.connect(server.tcp, tls=tls, access_token=TOKEN) as client:
-            assert client.scene().object("box").shape == "box"
+        with connect(server.tcp, tls=tls, access_token=TOKEN) as client:
+            assert client.scene().object("box").shape == "box" and client.role == "operator"
+            nearest = client.closest_point_batch([[0.15, 0, 0.2], [0.15, 0, 0.12]])
+            assert nearest.objects == ["box", "box"]
+            assert nearest.signed_distance == pytest.approx([0.1, 0.02])
             info = client.open_session("impedance", start=(0.15, 0, 0.2))
             assert info.udp_host == address
             with hapticd.DeviceSession(info) as device:

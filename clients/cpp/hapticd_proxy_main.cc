@@ -19,6 +19,7 @@
 #include <fmt/format.h>
 #include <asio/ip/udp.hpp>
 
+#include "hapticd/version.h"
 #include "clients/cpp/control_client.h"
 #include "clients/cpp/local_model_device.h"
 #include "clients/cpp/proxy_loop.h"
@@ -237,6 +238,10 @@ int main(int argc, char** argv) {
   }
   if (options.help) {
     std::fwrite(Usage().data(), 1, Usage().size(), stdout);
+    return 0;
+  }
+  if (options.version) {
+    std::printf("hapticd-proxy %.*s\n", static_cast<int>(hapticd::kVersion.size()), hapticd::kVersion.data());
     return 0;
   }
   try {

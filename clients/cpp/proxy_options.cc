@@ -49,6 +49,7 @@ than the miss threshold after their tick's deadline).
                        realtime thread; 0: normal scheduling); without CAP_SYS_NICE the
                        loop runs at normal priority and the report says so
   --help               this text
+  --version            print "hapticd-proxy VERSION" and exit
 
 Exit status: 0 after a run (its report printed, also when SIGINT or SIGTERM cut it
 short); 1 when the server cannot be reached or refuses the session; 2 for bad options.
@@ -133,6 +134,10 @@ ProxyOptions ParseProxyOptions(std::span<const std::string_view> args) {
       options.help = true;
       continue;
     }
+    if (name == "--version") {
+      options.version = true;
+      continue;
+    }
     if (!name.starts_with("--")) throw OptionsError(fmt::format("unexpected argument \"{}\"", name));
     if (!inline_value) {
       if (i + 1 >= args.size()) throw OptionsError(fmt::format("{} needs a value", name));
@@ -211,7 +216,7 @@ ProxyOptions ParseProxyOptions(std::span<const std::string_view> args) {
       throw OptionsError(fmt::format("unknown option {} (see --help)", name));
     }
   }
-  if (options.help) return options;
+  if (options.help || options.version) return options;
   if (!have_target) throw OptionsError("give --server HOST:PORT or --echo HOST:PORT (see --help)");
   if (options.echo && !options.udp_via.host.empty()) {
     throw OptionsError("--udp-via goes with --server (with --echo, name the relay as the echo)");

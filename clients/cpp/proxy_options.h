@@ -1,6 +1,7 @@
 #pragma once
 // hapticd-proxy's command line, read into plain options. Bad options throw OptionsError
-// with a message naming the option and its value; --help sets `help`.
+// with a message naming the option and its value; --help sets `help`, --version
+// `version`.
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -28,6 +29,7 @@ enum class PathKind {
 
 struct ProxyOptions {
   bool help = false;
+  bool version = false;
   bool echo = false;  // against a plain UDP echo (--echo) instead of hapticd (--server)
   HostPort target;    // the server's control endpoint, or the echo's UDP endpoint
   double seconds = 5;

@@ -7,6 +7,7 @@
 #include "server/app/default_scene.h"
 #include "server/app/server.h"
 #include "server/app/server_options.h"
+#include "hapticd/version.h"
 #include "server/net/log.h"
 #include "server/sim/scenario_parser.h"
 
@@ -46,6 +47,10 @@ int main(int argc, char** argv) {
   }
   if (options.help) {
     std::cout << hapticd::app::Usage();
+    return 0;
+  }
+  if (options.version) {
+    std::cout << "hapticd " << hapticd::kVersion << '\n';
     return 0;
   }
   hapticd::net::SetLogLevel(options.log_level);

@@ -67,6 +67,7 @@ options:
                             --access-token-file
   --log-level LEVEL         debug, info, warning or error (default info)
   --help                    this text
+  --version                 print "hapticd VERSION" and exit
 
 budgets (what one client can make the server hold or do; over one, a clear error):
   --max-objects N           objects in the scene (default 1024)
@@ -91,6 +92,10 @@ ServerOptions ParseServerOptions(std::span<const std::string_view> args) {
     const std::string_view option = args[i];
     if (option == "--help" || option == "-h") {
       options.help = true;
+      return options;
+    }
+    if (option == "--version") {
+      options.version = true;
       return options;
     }
     // unknown before missing: "--bogus" is unknown, not short of a value

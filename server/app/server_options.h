@@ -1,6 +1,6 @@
 #pragma once
 // hapticd's command line, read into plain options. Bad options throw OptionsError with
-// a message naming the option and value; --help sets `help`.
+// a message naming the option and value; --help sets `help`, --version `version`.
 #include <optional>
 #include <span>
 #include <stdexcept>
@@ -21,6 +21,7 @@ class OptionsError : public std::invalid_argument {
 
 struct ServerOptions {
   bool help = false;
+  bool version = false;
   std::string host = "127.0.0.1";
   int tcp_port = 7460;  // 0: any free port
   int udp_port = 7461;

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "hapticd/version.h"
 #include "server/conformance/query_runner.h"
 #include "server/embree/embree_device.h"
 
@@ -17,9 +18,14 @@ int main(int argc, char** argv) {
   const bool native = args.empty() || (args.size() == 2 && args[0] == "--ray-backend" && args[1] == "native");
   const bool embree = args.size() == 2 && args[0] == "--ray-backend" && args[1] == "embree";
   const bool embree_info = args.size() == 1 && args[0] == "--embree-info";
+  if (args.size() == 1 && args[0] == "--version") {
+    std::cout << "hapticd-query " << hapticd::kVersion << '\n';
+    return 0;
+  }
   if (help || !(native || embree || embree_info)) {
     std::cerr << "usage: " << argv[0] << " [--ray-backend native|embree] < CASES.jsonl > ANSWERS.jsonl\n"
               << "       " << argv[0] << " --embree-info\n"
+              << "       " << argv[0] << " --version\n"
               << "Answers geometry conformance cases, one JSON line each; the mesh ops run on the\n"
               << "native BVH (default) or the Embree backend. --embree-info prints one JSON line:\n"
               << "Embree's version, the kernel ISA it picked on this CPU, and its native packet widths.\n";

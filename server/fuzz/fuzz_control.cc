@@ -113,7 +113,7 @@ void CheckAnswer(const v1::Request& request, const v1::Reply& reply, uint64_t& s
     }
     case v1::Reply::kRayHits: {
       const v1::RayHits& hits = reply.ray_hits();
-      const int n = request.ray_cast_batch().origins_size() / 3;
+      const int n = request.ray_cast_batch().directions_size() / 3;
       FUZZ_CHECK(hits.hit_size() == n && hits.distance_size() == n && hits.objects_size() == n &&
                      hits.points_size() == 3 * n && hits.normals_size() == 3 * n,
                  "a batch of %d rays got %d hits, %d distances, %d objects, %d point and %d normal values", n,
@@ -123,6 +123,33 @@ void CheckAnswer(const v1::Request& request, const v1::Reply& reply, uint64_t& s
         FUZZ_CHECK(hits.hit(i) ? (d >= 0 && d <= request.ray_cast_batch().max_distance()) : d == 0,
                    "ray %d of a batch: hit %d at distance %g", i, hits.hit(i), d);
       }
+      break;
+    }
+    case v1::Reply::kClosestPoints: {
+      const v1::ClosestPoints& nearest = reply.closest_points();
+      const int n = request.closest_point_batch().points_size() / 3;
+      FUZZ_CHECK(nearest.found_size() == n && nearest.signed_distance_size() == n && nearest.objects_size() == n &&
+                     nearest.points_size() == 3 * n && nearest.normals_size() == 3 * n,
+                 "a batch of %d points got %d answers", n, nearest.found_size());
+      for (int i = 0; i < n; ++i) {
+        FUZZ_CHECK(nearest.found(i) == (nearest.objects(i) >= 0) &&
+                       (!nearest.found(i) ||
+                        nearest.signed_distance(i) <= request.closest_point_batch().max_distance()),
+                   "point %d of a batch: found %d, object %d, distance %g", i, nearest.found(i),
+                   nearest.objects(i), nearest.signed_distance(i));
+      }
+      break;
+    }
+    case v1::Reply::kContactsBatch: {
+      const v1::ContactsBatch& batch = reply.contacts_batch();
+      const int n = request.find_contacts_batch().centers_size() / 3;
+      int64_t total = 0;
+      for (const uint32_t count : batch.counts()) total += count;
+      FUZZ_CHECK(batch.counts_size() == n && total == batch.objects_size() && total == batch.depths_size() &&
+                     3 * total == batch.points_size() && 3 * total == batch.normals_size(),
+                 "a batch of %d centers got %d counts adding to %lld, %d objects", n, batch.counts_size(),
+                 static_cast<long long>(total), batch.objects_size());
+      for (const double depth : batch.depths()) FUZZ_CHECK(depth >= 0, "a batch contact of depth %g", depth);
       break;
     }
     case v1::Reply::kContacts:

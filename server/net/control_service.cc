@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "server/net/log.h"
+#include "server/net/point_batches.h"
 #include "server/net/proto_convert.h"
 #include "server/net/ray_batch.h"
 #include "server/net/request_error.h"
@@ -46,6 +47,8 @@ bool IsReadOnly(v1::Request::BodyCase body) {
     case R::kRayCastBatch:
     case R::kClosestPoint:
     case R::kFindContacts:
+    case R::kClosestPointBatch:
+    case R::kFindContactsBatch:
     case R::kSubscribe:
     case R::kUnsubscribe:
     case R::kGetStats:
@@ -265,6 +268,16 @@ v1::Reply ControlService::Dispatch(const v1::Request& request, ConnectionState& 
     }
     case R::kClosestPoint: return ClosestPoint(request.closest_point());
     case R::kFindContacts: return FindContacts(request.find_contacts());
+    case R::kClosestPointBatch: {
+      v1::Reply reply;
+      *reply.mutable_closest_points() = FindClosestPointBatch(*publisher_.current(), request.closest_point_batch());
+      return reply;
+    }
+    case R::kFindContactsBatch: {
+      v1::Reply reply;
+      *reply.mutable_contacts_batch() = FindBatchContacts(*publisher_.current(), request.find_contacts_batch());
+      return reply;
+    }
     case R::kSubscribe: return Subscribe(request.request_id(), request.subscribe(), connection);
     case R::kUnsubscribe: {
       const uint64_t id = request.unsubscribe().subscription_id();

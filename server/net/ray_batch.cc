@@ -9,32 +9,28 @@
 #include "server/net/request_error.h"
 
 namespace hapticd::net {
-namespace {
 
 using geometry::Vector3;
 
-// The most segments one request may hold (its frame is bounded anyway).
-constexpr int kMaxSegments = 1'000'000;
-
-}  // namespace
-
 v1::RayHits CastRayBatch(const scene::SceneSnapshot& scene, const v1::RayCastBatch& batch) {
-  // the segments, checked
+  // the segments, checked: one origin per direction, or one origin for them all
   const auto& origins = batch.origins();
   const auto& directions = batch.directions();
-  if (origins.size() % 3 != 0 || origins.size() != directions.size()) {
+  const bool one_origin = origins.size() == 3;
+  if (directions.size() % 3 != 0 || (!one_origin && origins.size() != directions.size())) {
     throw BadRequest(fmt::format("ray_cast_batch has {} origin and {} direction values; it needs x, y, z "
-                                 "of each, as many of one as of the other",
+                                 "of each, and one origin for every direction or one per direction",
                                  origins.size(), directions.size()));
   }
-  const int n = origins.size() / 3;
-  if (n > kMaxSegments) {
-    throw BadRequest(fmt::format("ray_cast_batch has {} segments; at most {} are served", n, kMaxSegments));
+  const int n = directions.size() / 3;
+  if (n > kMaxRaySegments) {
+    throw BadRequest(fmt::format("ray_cast_batch has {} segments; at most {} are served", n, kMaxRaySegments));
   }
   const double length = RequirePositive(batch.max_distance(), "ray_cast_batch.max_distance");
   std::vector<Vector3> a_W(n), b_W(n);
   for (int i = 0; i < n; ++i) {
-    const Vector3 origin(origins[3 * i], origins[3 * i + 1], origins[3 * i + 2]);
+    const int o = one_origin ? 0 : 3 * i;
+    const Vector3 origin(origins[o], origins[o + 1], origins[o + 2]);
     const Vector3 direction(directions[3 * i], directions[3 * i + 1], directions[3 * i + 2]);
     if (!origin.allFinite() || !direction.allFinite() || !(direction.norm() > 0)) {
       throw BadRequest(fmt::format("ray_cast_batch segment {} has origin [{}, {}, {}] and direction [{}, {}, {}]; "

@@ -7,9 +7,14 @@
 
 namespace hapticd::net {
 
-// The first hit of each segment of batch, in order. Throws RequestError naming the bad
-// field (uneven arrays, a non-finite value, a zero direction by its index, a bad
-// max_distance). A segment that only touches a surface counts as a hit.
+// The most segments one RayCastBatch may hold.
+inline constexpr int kMaxRaySegments = 1'000'000;
+
+// The first hit of each segment of batch, in order: one per direction, from its own
+// origin or from the batch's single origin (origins holding 3 values). Throws
+// RequestError naming the bad field (uneven arrays, a non-finite value, a zero
+// direction by its index, a bad max_distance, over kMaxRaySegments). A segment that only
+// touches a surface counts as a hit.
 v1::RayHits CastRayBatch(const scene::SceneSnapshot& scene, const v1::RayCastBatch& batch);
 
 }  // namespace hapticd::net

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include "server/geometry/work_meter.h"
 #include "server/query/neighbourhood.h"
@@ -120,6 +122,91 @@ SceneSweep SweepSphereSceneAmong(const scene::SceneSnapshot& scene, const Object
   return first;
 }
 
+// Appends each object a sphere of radius r at c_W touches (FindObjectContacts's rule)
+// to out, in scene order; near is scratch for the objects' indices.
+void AppendObjectContacts(const scene::SceneSnapshot& scene, const Vector3& c_W, double r, std::vector<int>& near,
+                          std::vector<SceneContact>& out) {
+  if (!c_W.allFinite() || !(r >= 0)) return;
+  near.clear();
+  scene.ForEachObjectNear({c_W - Vector3::Constant(r), c_W + Vector3::Constant(r)}, [&](int i) {
+    near.push_back(i);
+    return true;
+  });
+  std::sort(near.begin(), near.end());
+  for (const int i : near) {
+    const scene::SceneObject& object = scene.object(i);
+    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(c_W), r);
+    if (!probe.found || probe.signed_distance > r) continue;
+    out.push_back(ContactInWorld(object, i, probe, r));
+  }
+}
+
+// A candidate of FindNearestSurface: an object, whether it is a mesh (a dear probe),
+// and a lower bound on its signed distance from the point: the distance to its box from
+// outside the box; from inside, minus the distance to the box's boundary (no solid
+// inside the box reaches deeper). Ordered primitives first, then by bound, then by
+// object.
+struct NearCandidate {
+  bool mesh;
+  double bound;
+  int object;
+  bool operator<(const NearCandidate& other) const {
+    return std::tie(mesh, bound, object) < std::tie(other.mesh, other.bound, other.object);
+  }
+};
+
+// FindDeepestContact(scene, p_W, 0, max_gap), nearest first: the same objects are
+// candidates, but probed cheapest and nearest first, each only as far as the nearest
+// surface found so far, and not at all when its bound (NearCandidate) is above that:
+// such an object cannot be nearer, nor as near and earlier in the scene (an object
+// whose bound equals it is still probed). The primitives and hulls go first, then the
+// meshes in the order of their bounds, so that the cheap probes tighten the reach of
+// the dear ones and a point near a few objects probes only those, and not far,
+// whatever else lies within max_gap. order is scratch.
+SceneContact FindNearestSurface(const scene::SceneSnapshot& scene, const Vector3& p_W, double max_gap,
+                                std::vector<NearCandidate>& order) {
+  SceneContact nearest;
+  if (!p_W.allFinite() || !(max_gap >= 0)) return nearest;
+  order.clear();
+  scene.ForEachObjectNear({p_W - Vector3::Constant(max_gap), p_W + Vector3::Constant(max_gap)}, [&](int i) {
+    const scene::SceneObject& object = scene.object(i);
+    // FindDeepestContactAmong's candidates: boxes within reach
+    const double outside_sq = DistanceSquaredToBox(object.bounds_W, p_W);
+    if (outside_sq > max_gap * max_gap) return true;
+    const double bound = outside_sq > 0 ? std::sqrt(outside_sq)
+                                        : -(p_W - object.bounds_W.min).cwiseMin(object.bounds_W.max - p_W).minCoeff();
+    order.push_back({scene::TypeOf(object.shape) == scene::ShapeType::kMesh, bound, i});
+    return true;
+  });
+  // a handful as a rule: an insertion sort
+  for (std::size_t k = 1; k < order.size(); ++k) {
+    const NearCandidate held = order[k];
+    std::size_t j = k;
+    for (; j > 0 && held < order[j - 1]; --j) order[j] = order[j - 1];
+    order[j] = held;
+  }
+  for (const NearCandidate& candidate : order) {
+    if (nearest.object >= 0 && candidate.bound > -nearest.depth) {
+      // the meshes are in the order of their bounds: none after this one can be nearer
+      if (candidate.mesh) break;
+      continue;
+    }
+    // only a surface as near as the nearest so far can matter: a probe looks no farther
+    // (a probe's answer does not depend on its reach once it finds the surface within
+    // it; a point deeper inside a solid is found by the inside test whatever the reach)
+    const double reach = nearest.object >= 0 ? std::min(max_gap, std::abs(nearest.depth)) : max_gap;
+    const int i = candidate.object;
+    const scene::SceneObject& object = scene.object(i);
+    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(p_W), reach);
+    if (!probe.found || -probe.signed_distance < -max_gap) continue;
+    // the deepest (nearest); of equally deep ones, the first in the scene
+    const double depth = -probe.signed_distance;
+    if (nearest.object >= 0 && (depth < nearest.depth || (depth == nearest.depth && i > nearest.object))) continue;
+    nearest = ContactInWorld(object, i, probe, 0);
+  }
+  return nearest;
+}
+
 }  // namespace
 
 SceneContact FindDeepestContact(const scene::SceneSnapshot& scene, const Vector3& c_W, double r,
@@ -195,14 +282,31 @@ void CastSegments(const scene::SceneSnapshot& scene, std::span<const Vector3> a_
 
 std::vector<SceneContact> FindObjectContacts(const scene::SceneSnapshot& scene, const Vector3& c_W, double r) {
   std::vector<SceneContact> contacts;
-  if (!c_W.allFinite() || !(r >= 0)) return contacts;
-  for (const int i : scene.ObjectsNear({c_W - Vector3::Constant(r), c_W + Vector3::Constant(r)})) {
-    const scene::SceneObject& object = scene.object(i);
-    const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(c_W), r);
-    if (!probe.found || probe.signed_distance > r) continue;
-    contacts.push_back(ContactInWorld(object, i, probe, r));
-  }
+  std::vector<int> near;
+  AppendObjectContacts(scene, c_W, r, near, contacts);
   return contacts;
+}
+
+void FindClosestPoints(const scene::SceneSnapshot& scene, std::span<const Vector3> p_W, double max_distance,
+                       std::span<SceneContact> out) {
+  const std::size_t n = std::min(p_W.size(), out.size());
+  std::vector<NearCandidate> order;
+  for (std::size_t i = 0; i < n; ++i) out[i] = FindNearestSurface(scene, p_W[i], max_distance, order);
+}
+
+bool FindObjectContactsBatch(const scene::SceneSnapshot& scene, std::span<const Vector3> c_W,
+                             std::span<const double> r, std::size_t max_contacts, std::vector<SceneContact>& out,
+                             std::span<int> counts) {
+  const std::size_t n = std::min({c_W.size(), counts.size(), r.size() == 1 ? c_W.size() : r.size()});
+  std::vector<int> near;
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t before = out.size();
+    AppendObjectContacts(scene, c_W[i], r.size() == 1 ? r[0] : r[i], near, out);
+    // refuse rather than answer past the bound
+    if (out.size() > max_contacts) return false;
+    counts[i] = static_cast<int>(out.size() - before);
+  }
+  return true;
 }
 
 FeatureSet::FeatureSet(int capacity) : features_(std::max(capacity, 0)), scratch_(std::max(capacity, 0)) {}

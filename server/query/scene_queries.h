@@ -64,6 +64,29 @@ void CastSegments(const scene::SceneSnapshot& scene, std::span<const Vector3> a_
 // control thread.
 std::vector<SceneContact> FindObjectContacts(const scene::SceneSnapshot& scene, const Vector3& c_W, double r);
 
+// The batch forms of the two queries above, one snapshot for all points (the control
+// channel's ClosestPointBatch and FindContactsBatch).
+//
+// out[i] = FindDeepestContact(scene, p_W[i], 0, max_distance) for the first min(sizes)
+// points: each point's nearest surface point within max_distance (>= 0, m), depth =
+// -signed distance; object -1 where none lies within reach or p_W[i] is not finite.
+// The same answers, found nearest first: the objects near a point are probed in the
+// order of a bound on their signed distance (from their boxes) until none left can be
+// nearer, so a large max_distance costs little more than a small one. Allocates: for
+// the control thread.
+void FindClosestPoints(const scene::SceneSnapshot& scene, std::span<const Vector3> p_W, double max_distance,
+                       std::span<SceneContact> out);
+
+// FindObjectContacts for each sphere i (centre c_W[i], radius r[i], or r[0] for every
+// centre when r holds one value; each >= 0) in turn: appends its contacts to out (after
+// what out held) and sets counts[i] to their number, for the first min(c_W.size(),
+// counts.size(), r.size() unless 1) centres. Returns false, with out and counts partly
+// filled, as soon as out holds more than max_contacts. Allocates: for the control
+// thread.
+bool FindObjectContactsBatch(const scene::SceneSnapshot& scene, std::span<const Vector3> c_W,
+                             std::span<const double> r, std::size_t max_contacts, std::vector<SceneContact>& out,
+                             std::span<int> counts);
+
 // One piece of surface near a point: a whole primitive, plane or hull, or one triangle
 // of a mesh, with its object (whose material, motion and velocity say how it feels).
 struct SceneFeature {

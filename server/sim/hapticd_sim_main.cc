@@ -1,6 +1,7 @@
 // hapticd-sim: runs one haptic scenario (../shared/scenarios/FORMAT.md) in simulated time.
 //
 //   hapticd-sim SCENARIO.json [--trace TRACE.csv] [--set key.path=value ...]
+//   hapticd-sim --version
 //
 // Prints one JSON summary line on stdout; with --trace, writes one CSV row per tick.
 // Exit status: 0 when the run completed; 2 for a bad command line or a scenario that is
@@ -13,6 +14,7 @@
 #include <string_view>
 #include <vector>
 
+#include "hapticd/version.h"
 #include "server/sim/scenario_parser.h"
 #include "server/sim/sim_output.h"
 #include "server/sim/simulator.h"
@@ -22,7 +24,8 @@ namespace {
 constexpr int kUsageError = 2;
 constexpr int kRunError = 1;
 constexpr const char* kUsage =
-    "usage: hapticd-sim SCENARIO.json [--trace TRACE.csv] [--set key.path=value ...]\n";
+    "usage: hapticd-sim SCENARIO.json [--trace TRACE.csv] [--set key.path=value ...]\n"
+    "       hapticd-sim --version\n";
 
 struct Arguments {
   std::string scenario;
@@ -63,6 +66,10 @@ bool ParseArguments(int argc, char** argv, Arguments& arguments) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (argc == 2 && std::string_view(argv[1]) == "--version") {
+    std::printf("hapticd-sim %.*s\n", static_cast<int>(hapticd::kVersion.size()), hapticd::kVersion.data());
+    return 0;
+  }
   Arguments arguments;
   if (!ParseArguments(argc, argv, arguments)) return kUsageError;
 

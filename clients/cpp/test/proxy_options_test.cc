@@ -33,6 +33,11 @@ TEST(ProxyOptions, Defaults) {
   EXPECT_EQ(options.realtime_priority, 20);
 }
 
+TEST(ProxyOptions, VersionNeedsNoServer) {
+  EXPECT_TRUE(Parse({"--version"}).version);
+  EXPECT_FALSE(Parse({"--server", "127.0.0.1:7460"}).version);
+}
+
 TEST(ProxyOptions, ReadsEveryOption) {
   const ProxyOptions options =
       Parse({"--echo=localhost:9", "--seconds", "2.5", "--rate-hz", "500", "--sessions", "25", "--threads", "2",

@@ -103,3 +103,12 @@ def test_a_plot_into_a_missing_directory_exits_2(capsys, closed_port):
 def test_an_unreachable_server_exits_1(capsys, closed_port):
     code, err = run(["scene", "show", "--server", closed_port], capsys)
     assert code == 1 and f"cannot connect to {closed_port}" in err
+
+
+def test_version_is_the_packages(capsys):
+    import hapticd
+
+    with pytest.raises(SystemExit) as exited:
+        main(["--version"])
+    assert exited.value.code == 0
+    assert capsys.readouterr().out == f"hapticd {hapticd.__version__} (Python client)\n"

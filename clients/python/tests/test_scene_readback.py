@@ -22,6 +22,7 @@ from hapticd import (
     RemoteError,
     Sphere,
 )
+from hapticd import _calls as calls
 from hapticd import _codec as codec
 from hapticd.scene_files import read_scene_file, scene_document, write_scene_file
 from hapticd.scene_readback import READ_ATTEMPTS, read_whole_scene
@@ -207,8 +208,9 @@ def test_the_document_names_only_what_differs_from_the_defaults():
 
 
 class FakeScenes:
-    """A Client's scene(): too large with every mesh at once, then one mesh a request,
-    whose digest is given by digests (one per call for each mesh read)."""
+    """The call reading the scene once (_calls.scene): too large with every mesh at once,
+    then one mesh a request, whose digest is given by digests (one per call for each
+    mesh read). Its calls answer at once, asking the transport nothing."""
 
     def __init__(self, digests):
         self.digests = list(digests)
@@ -216,6 +218,9 @@ class FakeScenes:
 
     def __call__(self, include_mesh_data=False, mesh_data_for=()):
         self.calls.append((include_mesh_data, list(mesh_data_for)))
+        return self._answer(include_mesh_data, mesh_data_for)
+
+    def _answer(self, include_mesh_data, mesh_data_for):
         if include_mesh_data:
             raise RemoteError("RESOURCE_EXHAUSTED", 5, "too much")
         if mesh_data_for:
@@ -224,11 +229,18 @@ class FakeScenes:
         else:
             info = mesh_info("m", "box", False, pb.REPRESENTATION_BOX)
         return codec.scene_from(description(info))
+        yield  # a generator: a call that needs no request
+
+
+def read_whole(reads):
+    """read_whole_scene driven as the clients drive a call (no request reaches this
+    transport: FakeScenes answers every read itself)."""
+    return calls.run(read_whole_scene(reads), perform=pytest.fail)
 
 
 def test_meshes_too_large_for_one_reply_are_read_one_at_a_time():
     reads = FakeScenes([7])
-    scene = read_whole_scene(reads)
+    scene = read_whole(reads)
     assert reads.calls == [(True, []), (False, []), (False, ["m"])]
     assert np.array_equal(scene.object("m").mesh.vertices, TETRA)
     assert isinstance(scene.object("m").represented, Box)
@@ -238,9 +250,9 @@ def test_a_mesh_that_keeps_changing_while_read_is_given_up_on():
     # the scene says digest 7, and every read of the mesh itself finds another
     reads = FakeScenes([8] * READ_ATTEMPTS)
     with pytest.raises(Exception, match=f"changed each of the {READ_ATTEMPTS} times"):
-        read_whole_scene(reads)
+        read_whole(reads)
     # one changed reading, then a stable one: the second attempt succeeds
-    assert read_whole_scene(FakeScenes([8, 7])).object("m").mesh is not None
+    assert read_whole(FakeScenes([8, 7])).object("m").mesh is not None
 
 
 def golden(name):

@@ -15,6 +15,12 @@ TETRA = [0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1]
 TETRA_TRIANGLES = [0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3]
 
 
+
+@pytest.fixture
+def client_kind() -> str:
+    """The view drives a blocking Client (an asyncio program hands it one of its own)."""
+    return "blocking"
+
 def scene(version, digest, with_data):
     """A sphere and a mesh kept as a mesh (its data only when asked)."""
     ball = pb.ObjectInfo(name="ball", shape="sphere", representation="sphere")

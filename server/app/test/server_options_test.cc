@@ -30,6 +30,9 @@ TEST(ServerOptions, DefaultsToLoopback) {
   EXPECT_EQ(free_ports.udp_port, 0);
   EXPECT_EQ(free_ports.log_level, net::LogLevel::kDebug);
   EXPECT_TRUE(Parse({"--help"}).help);
+  EXPECT_FALSE(options.version);
+  // --version wins over what follows it, as --help does
+  EXPECT_TRUE(Parse({"--version", "--tcp-port", "70000"}).version);
 }
 
 TEST(ServerOptions, NamesTheBadOption) {

@@ -480,8 +480,8 @@ TEST(ControlService, ABatchOfRaysAnswersAsSingleRays) {
 
   rays->add_origins(0);
   ExpectError(harness.Call(batch), v1::Error::CODE_BAD_REQUEST,
-              "ray_cast_batch has 1501 origin and 1500 direction values; it needs x, y, z of each, as many of one "
-              "as of the other");
+              "ray_cast_batch has 1501 origin and 1500 direction values; it needs x, y, z of each, and one origin "
+              "for every direction or one per direction");
   rays->mutable_origins()->RemoveLast();
   rays->set_directions(4, 0);
   rays->set_directions(3, 0);

@@ -262,6 +262,58 @@ TEST(SceneQueries, EqualALoopOverEveryObject) {
   EXPECT_GT(hits, 300);
 }
 
+// The batch queries answer as the single ones (the loops over every object): closest
+// points found nearest first, at reaches from a few millimetres to the whole scene,
+// inside solids and far from all; contacts laid end to end with their counts.
+TEST(SceneQueries, BatchesAnswerAsSingleQueries) {
+  RandomScene world(45);
+  const auto scene = world.Build();
+  std::vector<Vector3> points;
+  for (int q = 0; q < 600; ++q) {
+    const scene::SceneObject& near = scene->object(1 + q % (scene->num_objects() - 1));
+    points.push_back(q % 3 == 0 ? world.RandomPoint() : Vector3(near.bounds_W.center() + 0.02 * world.RandomPoint()));
+  }
+  points.push_back(Vector3(NAN, 0, 0));
+  int inside = 0;
+  for (const double reach : {0.005, 0.3, 3.0}) {
+    std::vector<SceneContact> nearest(points.size());
+    FindClosestPoints(*scene, points, reach, nearest);
+    for (std::size_t q = 0; q < points.size(); ++q) {
+      const std::string what = "reach " + std::to_string(reach) + " point " + std::to_string(q);
+      ExpectSameContact(nearest[q], BruteDeepestContact(*scene, points[q], 0, reach), what);
+      inside += nearest[q].object >= 0 && nearest[q].depth > 0;
+    }
+    EXPECT_EQ(nearest.back().object, -1);
+  }
+  EXPECT_GT(inside, 30);
+
+  std::vector<double> radii;
+  for (std::size_t q = 0; q < points.size(); ++q) radii.push_back(world.Uniform(0, 0.05));
+  std::vector<SceneContact> laid;
+  std::vector<int> counts(points.size(), -1);
+  ASSERT_TRUE(FindObjectContactsBatch(*scene, points, radii, 1'000'000, laid, counts));
+  std::size_t k = 0;
+  for (std::size_t q = 0; q < points.size(); ++q) {
+    const std::vector<SceneContact> want = BruteObjectContacts(*scene, points[q], radii[q]);
+    ASSERT_EQ(counts[q], static_cast<int>(want.size())) << q;
+    for (const SceneContact& contact : want) ExpectSameContact(laid[k++], contact, "centre " + std::to_string(q));
+  }
+  EXPECT_EQ(k, laid.size());
+  EXPECT_GT(laid.size(), 300u);
+  // one radius for all; and a bound below what they find stops the batch
+  laid.clear();
+  const std::array<double, 1> one{0.03};
+  ASSERT_TRUE(FindObjectContactsBatch(*scene, points, one, 1'000'000, laid, counts));
+  for (std::size_t q = 0; q < points.size(); ++q) {
+    ASSERT_EQ(counts[q], static_cast<int>(BruteObjectContacts(*scene, points[q], 0.03).size())) << q;
+  }
+  const std::size_t all = laid.size();
+  laid.clear();
+  EXPECT_FALSE(FindObjectContactsBatch(*scene, points, one, all - 1, laid, counts));
+  laid.clear();
+  EXPECT_TRUE(FindObjectContactsBatch(*scene, points, one, all, laid, counts));
+}
+
 // The same scene with every mesh on the native BVH and on Embree answers alike.
 TEST(SceneQueries, NativeAndEmbreeAgree) {
   RandomScene native(43, scene::RayBackend::kNative), embree(43, scene::RayBackend::kEmbree);

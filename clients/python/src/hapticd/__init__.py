@@ -9,13 +9,18 @@
             command = device.exchange(position=(0, 0, 0.1))
 
 connect() gives a Client for the control channel (scene edits, queries, sessions,
-telemetry); DeviceSession speaks the UDP realtime channel; SimImpedanceDevice and
+telemetry), connect_async() an AsyncClient with the same methods for asyncio programs;
+DeviceSession speaks the UDP realtime channel; SimImpedanceDevice and
 SimAdmittanceDevice simulate a device held by a hand. Errors are HapticdError
 subclasses: LocalError (misuse), RemoteError (the server refused), ProtocolError,
-ConnectionClosed, Timeout. Units SI, world frame W.
+ConnectionClosed, Timeout. Units SI (m, N, s, kg), world frame W, quaternions in the
+order (w, x, y, z).
 """
 
-from hapticd.client import Client, Subscription, connect
+import importlib.metadata
+
+from hapticd.async_client import AsyncClient, AsyncSubscription, connect_async
+from hapticd.client import Client, SessionOptions, Subscription, connect
 from hapticd.device import Command, DeviceCounters, DeviceSession, RttSummary, summarize_rtt
 from hapticd.errors import (
     ConnectionClosed,
@@ -41,7 +46,9 @@ from hapticd.objects import (
 )
 from hapticd.results import (
     ClosestPoint,
+    ClosestPoints,
     Contact,
+    ContactsBatch,
     ObjectInfo,
     RayHit,
     RayHits,
@@ -56,15 +63,26 @@ from hapticd.scene_edits import MAX_EDITS_PER_BATCH, SceneEdits
 from hapticd.scene_files import read_mesh_file, read_scene_file
 from hapticd.sim_device import DeviceSpec, HandSpec, SimAdmittanceDevice, SimImpedanceDevice
 
+try:
+    # the version the package was installed as: pyproject.toml's, the one source of the
+    # C++ binaries' version too (CMakeLists.txt reads it)
+    __version__ = importlib.metadata.version("hapticd")
+except importlib.metadata.PackageNotFoundError:  # pragma: no cover - run from a bare tree
+    __version__ = "0+unknown"
+
 __all__ = [
     "MAX_EDITS_PER_BATCH",
+    "AsyncClient",
+    "AsyncSubscription",
     "Box",
     "Capsule",
     "Client",
     "ClosestPoint",
+    "ClosestPoints",
     "Command",
     "ConnectionClosed",
     "Contact",
+    "ContactsBatch",
     "Convex",
     "DeviceCounters",
     "DeviceSession",
@@ -89,6 +107,7 @@ __all__ = [
     "ServerCounters",
     "SessionEnded",
     "SessionInfo",
+    "SessionOptions",
     "SessionTelemetry",
     "Shape",
     "SimAdmittanceDevice",
@@ -98,7 +117,9 @@ __all__ = [
     "Subscription",
     "Telemetry",
     "Timeout",
+    "__version__",
     "connect",
+    "connect_async",
     "read_mesh_file",
     "read_scene_file",
     "summarize_rtt",

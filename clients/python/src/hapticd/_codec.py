@@ -6,11 +6,13 @@ numpy (packed fields), so a large mesh costs no per-element Python work.
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from hapticd._validate import FloatArray
+from hapticd.errors import LocalError
 from hapticd.objects import (
     Box,
     Capsule,
@@ -25,7 +27,9 @@ from hapticd.objects import (
 )
 from hapticd.results import (
     ClosestPoint,
+    ClosestPoints,
     Contact,
+    ContactsBatch,
     ObjectInfo,
     RayHit,
     RayHits,
@@ -314,6 +318,59 @@ def contacts_from(message: pb.ContactsResult) -> list[Contact]:
         Contact(object=c.object, point=array3(c.point), normal=array3(c.normal), depth=c.depth)
         for c in message.contacts
     ]
+
+
+def _column(values: Iterable[Any], rows: int, what: str, dtype: Any, width: int = 1) -> Any:
+    """A repeated field as a numpy array of rows rows (of width values each, as (rows,
+    width) when width > 1); LocalError naming what when it holds another count. (numpy
+    reads a parsed repeated field at memory speed.)"""
+    array = np.array(values, dtype=dtype)
+    if len(array) != rows * width:
+        raise LocalError(f"it holds {len(array)} {what} values for {rows} rows")
+    return array.reshape(rows, width) if width > 1 else array
+
+
+def object_names_from(message: pb.ObjectNames) -> dict[int, str]:
+    """The index -> name table of a batch's answers."""
+    if len(message.indices) != len(message.names):
+        raise LocalError(
+            f"its object table has {len(message.indices)} indices and {len(message.names)} names"
+        )
+    return dict(zip(message.indices, message.names, strict=True))
+
+
+def closest_points_from(message: pb.ClosestPoints) -> ClosestPoints:
+    """ClosestPoints from their message (its arrays copied into numpy once); LocalError
+    when its columns differ in length (the caller turns that into a ProtocolError)."""
+    n = len(message.found)
+    return ClosestPoints(
+        found=np.array(message.found, dtype=bool),
+        signed_distance=_column(message.signed_distance, n, "signed_distance", np.float64),
+        point=_column(message.points, n, "point", np.float64, 3),
+        normal=_column(message.normals, n, "normal", np.float64, 3),
+        object_index=_column(message.objects, n, "object", np.int64),
+        object_names=object_names_from(message.object_names),
+        scene_version=message.scene_version,
+    )
+
+
+def contacts_batch_from(message: pb.ContactsBatch) -> ContactsBatch:
+    """A ContactsBatch from its message; LocalError when its columns do not hold as many
+    contacts as its counts add up to (the caller turns that into a ProtocolError)."""
+    counts = np.array(message.counts, dtype=np.int64)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    m = int(offsets[-1])
+    return ContactsBatch(
+        counts=counts,
+        offsets=offsets,
+        center_index=np.repeat(np.arange(len(counts), dtype=np.int64), counts),
+        object_index=_column(message.objects, m, "object", np.int64),
+        point=_column(message.points, m, "point", np.float64, 3),
+        normal=_column(message.normals, m, "normal", np.float64, 3),
+        depth=_column(message.depths, m, "depth", np.float64),
+        object_names=object_names_from(message.object_names),
+        scene_version=message.scene_version,
+    )
 
 
 # ---- telemetry ----

@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from hapticd import ur_bridge
+from hapticd import __version__, ur_bridge
 from hapticd._connection import parse_address
 from hapticd.client import Client, connect
 from hapticd.demo import Trace, plot_trace, run_demo, run_latency_bench
@@ -92,6 +92,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="hapticd's command line." + __doc__.split(":", 1)[1],
         formatter_class=argparse.RawDescriptionHelpFormatter,
         allow_abbrev=False,
+    )
+    parser.add_argument(
+        "--version", action="version", version=f"hapticd {__version__} (Python client)"
     )
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 

@@ -4,40 +4,41 @@ and watch them, with numpy arrays in and out.
     with hapticd.connect("127.0.0.1:7460") as client:
         client.add_sphere("ball", 0.05, position=(0, 0, 0.05), material={"stiffness": 2000})
         hit = client.ray_cast(origin=(0, 0, 1), direction=(0, 0, -1))
+        nearest = client.closest_point_batch(np.random.rand(1000, 3))
 
 Arguments are validated before anything is sent (LocalError naming the bad value, or
 the unknown keyword); the server's refusals raise RemoteError with its code and
 message. Every call takes an explicit timeout_s (default: the client's). Threads may
 share a Client: each request waits for its own reply, and subscriptions get their own
-samples. Closing a Client (or leaving its with block) closes the device sessions it
-opened and has not closed.
+samples (_connection.py says how). Closing a Client (or leaving its with block) closes
+the device sessions it opened and has not closed.
+
+Units are SI (m, N, s, kg); points, directions, normals and poses are in the scene's
+world frame W; a rotation is a unit quaternion in the order (w, x, y, z) or a 3x3
+rotation matrix. What each method asks and answers is written once (_calls.py) and
+shared with AsyncClient (async_client.py), which awaits the same calls.
 """
 
 from __future__ import annotations
 
-import collections
-import functools
 import pathlib
 import ssl
-import threading
 from collections.abc import Callable, Iterable, Iterator
-from typing import TypeVar, cast
+from typing import Any, TypedDict, TypeVar, Unpack
 
-import numpy as np
 from google.protobuf.message import Message
 from numpy.typing import ArrayLike
 
-from hapticd import _codec as codec
+from hapticd import _calls as calls
 from hapticd import _validate as check
 from hapticd._closing import ClosesOnExit
-from hapticd._connection import Connection, parse_address, remote_error
-from hapticd.errors import HapticdError, LocalError, ProtocolError, RemoteError
-from hapticd.objects import (
-    Material,
-)
+from hapticd._connection import Connection
+from hapticd.errors import LocalError, RemoteError
 from hapticd.results import (
     ClosestPoint,
+    ClosestPoints,
     Contact,
+    ContactsBatch,
     RayHit,
     RayHits,
     SceneInfo,
@@ -46,25 +47,52 @@ from hapticd.results import (
     Telemetry,
 )
 from hapticd.scene_edits import SceneEditor, SceneEdits
-from hapticd.scene_files import write_scene_file
-from hapticd.scene_readback import read_whole_scene
 from hapticd.v1 import hapticd_pb2 as pb
 
-PROTOCOL_VERSION = 1
-DEVICE_TYPES = {"impedance": pb.DEVICE_TYPE_IMPEDANCE, "admittance": pb.DEVICE_TYPE_ADMITTANCE}
-AVATARS = {"point": pb.AVATAR_TYPE_POINT, "sphere": pb.AVATAR_TYPE_SPHERE}
-REMOTE_MODES = {"direct": pb.REMOTE_MODE_DIRECT, "local_model": pb.REMOTE_MODE_LOCAL_MODEL}
-FORCE_METHODS = {
-    "default": pb.FORCE_METHOD_DEFAULT,
-    "penalty": pb.FORCE_METHOD_PENALTY,
-    "god_object": pb.FORCE_METHOD_GOD_OBJECT,
-    "finger_proxy": pb.FORCE_METHOD_FINGER_PROXY,
-}
-# How many closed session ids a client remembers, so that closing one twice is quiet.
-CLOSED_SESSIONS_REMEMBERED = 1024
+PROTOCOL_VERSION = calls.PROTOCOL_VERSION
+MAX_BATCH_ROWS = calls.MAX_BATCH_ROWS
 
 ResultT = TypeVar("ResultT")
-BodyT = TypeVar("BodyT", bound=Message)
+
+
+class SessionOptions(TypedDict, total=False):
+    """What Client.open_session and AsyncClient.open_session take besides device_type
+    (all keywords; ranges are the server's, _validate.RANGES):
+
+    - degrees_of_freedom: 3 or 6 (default 3; a 6-DOF device gets zero torque for now)
+    - max_force: N, in (0, 1e4] (default 10); max_velocity: m/s, in (0, 100] (default 2)
+    - rate_hz: the device's state rate, Hz, in [10, 10000] (default 1000)
+    - max_force_rate: N/s (default 0: no limit)
+    - avatar: "point" (default) or "sphere", with avatar_radius m in (0, 1]
+    - method: "default" (god_object for a point, finger_proxy for a sphere), "penalty",
+      "god_object" or "finger_proxy"; force_shading, passivity: bools (default False)
+    - virtual_mass: kg in [1e-3, 1e3] and virtual_damping: N·s/m in [0, 1e5], for an
+      admittance device (0: the server's 1 kg and 20 N·s/m)
+    - start: the device's position now, m, (3,) in W (default the origin)
+    - session_timeout_s: reclaim the session after this long without states, s, in
+      [0.15, 3600] (default 0: the server's 2 s)
+    - remote_mode: "direct" (default: the device renders each command's force) or
+      "local_model" (impedance only: the commands carry models of the scene near the
+      device, which renders its force itself: DeviceSession.render)
+    - timeout_s: this request's timeout, s
+    """
+
+    degrees_of_freedom: int
+    max_force: float
+    max_velocity: float
+    rate_hz: float
+    max_force_rate: float
+    avatar: str
+    avatar_radius: float
+    method: str
+    force_shading: bool
+    passivity: bool
+    virtual_mass: float
+    virtual_damping: float
+    start: ArrayLike
+    session_timeout_s: float
+    remote_mode: str
+    timeout_s: float | None
 
 
 def connect(
@@ -77,84 +105,71 @@ def connect(
     server_hostname: str | None = None,
 ) -> Client:
     """Connects to a hapticd server's control channel at address ("host:port") and
-    introduces itself (Hello). Off loopback tls is required and access_token is what the
-    server was started with. timeout_s is the default for every later request too."""
+    introduces itself (Hello). Off loopback tls is required (an ssl.SSLContext that
+    trusts the server's certificate; server_hostname: the name to check it for, default
+    the host) and access_token is what the server was started with. timeout_s (s) is
+    the default for every later request too."""
     timeout_s = check.positive(timeout_s, "timeout_s")
     connection = Connection.open(
         address, timeout_s=timeout_s, tls=tls, server_hostname=server_hostname
     )
     try:
-        hello = pb.Hello(
-            protocol_version=PROTOCOL_VERSION, access_token=access_token, client_name=client_name
+        greeting = calls.run(
+            calls.hello(access_token, client_name),
+            lambda request: connection.request(request.body_name, request.body, timeout_s),
         )
-        reply = connection.request("hello", hello, timeout_s)
-        answer = _body(reply, "hello", pb.HelloReply)
-        if answer.protocol_version != PROTOCOL_VERSION:
-            raise ProtocolError(
-                f"server speaks protocol version {answer.protocol_version}; this client "
-                f"speaks {PROTOCOL_VERSION}"
-            )
     except BaseException:
         connection.close()
         raise
-    return Client(connection, timeout_s, answer.server_name, answer.udp_endpoint)
+    return Client(connection, timeout_s, greeting.server_name, greeting.udp_endpoint, greeting.role)
 
 
-def _body(reply: pb.Reply, name: str, kind: type[BodyT]) -> BodyT:
-    """The reply's body, which must be `name`; ProtocolError otherwise."""
-    got = reply.WhichOneof("body")
-    if got != name:
-        raise ProtocolError(f"expected a {name} reply, got {got or 'an empty one'}")
-    return cast(BodyT, getattr(reply, name))
-
-
-def _decoded(convert: Callable[[BodyT], ResultT], body: BodyT) -> ResultT:
-    """convert(body); a value the package's own types refuse is the server's fault."""
-    try:
-        return convert(body)
-    except LocalError as exc:
-        raise ProtocolError(f"the server sent an invalid {body.DESCRIPTOR.name}: {exc}") from exc
-
-
-class Client(ClosesOnExit, SceneEditor):
-    """A connection to the control channel; made by connect(). Use as a context manager
-    or call close(). Its scene edits (SceneEditor's methods) each return the new scene
-    version."""
+class Client(ClosesOnExit, SceneEditor[int]):
+    """A blocking connection to the control channel; made by connect(). Use as a
+    context manager or call close(). Its scene edits (SceneEditor's methods) each
+    return the new scene version. Safe to share between threads."""
 
     def __init__(
-        self, connection: Connection, timeout_s: float, server_name: str, udp_endpoint: str
+        self,
+        connection: Connection,
+        timeout_s: float,
+        server_name: str,
+        udp_endpoint: str,
+        role: str = "operator",
     ) -> None:
         self._connection = connection
         self.timeout_s = timeout_s
         self.server_name = server_name
         self.udp_endpoint = udp_endpoint
-        # device sessions opened here and not closed yet, and the latest ones closed
-        self._sessions: set[int] = set()
-        self._closed_sessions: collections.OrderedDict[int, None] = collections.OrderedDict()
-        self._sessions_lock = threading.Lock()
+        self.role = role
+        self._sessions = calls.SessionBook()
 
     def __enter__(self) -> Client:
         return self
+
+    def _perform(self, request: calls.Request) -> pb.Reply:
+        timeout_s = self.timeout_s if request.timeout_s is None else request.timeout_s
+        return self._connection.request(request.body_name, request.body, timeout_s)
+
+    def _run(self, call: calls.Call[ResultT]) -> ResultT:
+        return calls.run(call, self._perform)
+
+    def _edit(self, body_name: str, body: Message, timeout_s: float | None) -> int:
+        return self._run(calls.edit(body_name, body, timeout_s))
+
+    def _edit_material_fields(
+        self, name: str, changes: dict[str, Any], timeout_s: float | None
+    ) -> int:
+        return self._run(calls.set_material_fields(name, changes, timeout_s))
 
     def close(self) -> None:
         """Closes the device sessions this client opened and has not closed (one the
         server has already reclaimed is skipped), then the connection; the server ends
         the connection's subscriptions. Idempotent. When a session cannot be closed,
         the connection is closed all the same and the first such error raised."""
-        failure: HapticdError | None = None
-        with self._sessions_lock:
-            open_sessions = sorted(self._sessions)
-        for session_id in open_sessions:
-            if self._connection.closed:
-                break
-            try:
-                self.close_session(session_id)
-            except RemoteError as exc:
-                if exc.code != "NOT_FOUND" and failure is None:
-                    failure = exc
-            except HapticdError as exc:
-                failure = failure or exc
-        self._connection.close()
+        connection = self._connection
+        failure = self._run(calls.close_sessions(self._sessions, lambda: connection.closed))
+        connection.close()
         if failure is not None:
             raise failure
 
@@ -162,20 +177,6 @@ class Client(ClosesOnExit, SceneEditor):
     def closed(self) -> bool:
         """Whether the connection is closed."""
         return self._connection.closed
-
-    def _call(self, body_name: str, body: Message, timeout_s: float | None) -> pb.Reply:
-        timeout = self.timeout_s if timeout_s is None else check.positive(timeout_s, "timeout_s")
-        return self._connection.request(body_name, body, timeout)
-
-    def _edit(self, body_name: str, body: Message, timeout_s: float | None) -> int:
-        return _body(self._call(body_name, body, timeout_s), "done", pb.Done).scene_version
-
-    def _current_material(self, name: str, timeout_s: float | None) -> Material | None:
-        """The material of the object called name as the server holds it (None: none)."""
-        for info in self.scene(timeout_s=timeout_s).objects:
-            if info.name == name:
-                return info.material
-        return None
 
     def edit_scene(self, edits: SceneEdits, *, timeout_s: float | None = None) -> int:
         """Applies a batch of edits (SceneEdits) in one request, as one: all of them, as
@@ -187,7 +188,7 @@ class Client(ClosesOnExit, SceneEditor):
         return self._edit("edit_scene", edits.message(), timeout_s)
 
     def clear_scene(self, *, timeout_s: float | None = None) -> int:
-        """Removes every object."""
+        """Removes every object; the new scene version."""
         return self._edit("clear_scene", pb.ClearScene(), timeout_s)
 
     def scene(
@@ -204,12 +205,7 @@ class Client(ClosesOnExit, SceneEditor):
         (24 bytes a vertex, 12 a triangle; RemoteError RESOURCE_EXHAUSTED naming the
         bytes over it, NOT_FOUND for a name the scene lacks). export_scene reads any
         amount."""
-        names = [check.object_name(name, "mesh_data_for[]") for name in mesh_data_for]
-        if include_mesh_data and names:
-            raise LocalError("give include_mesh_data or mesh_data_for, not both")
-        message = codec.get_scene_message(check.flag(include_mesh_data, "include_mesh_data"), names)
-        reply = self._call("get_scene", message, timeout_s)
-        return _decoded(codec.scene_from, _body(reply, "scene", pb.SceneDescription))
+        return self._run(calls.scene(timeout_s, include_mesh_data, mesh_data_for))
 
     def export_scene(
         self, path: str | pathlib.Path, *, timeout_s: float | None = None
@@ -218,9 +214,7 @@ class Client(ClosesOnExit, SceneEditor):
         read) that reads back to the same scene: every object as it was given (a mesh
         with its vertices and triangles, pinned as it was), its pose, material, motion,
         and the scene's tolerance. Returns the scene written."""
-        scene = read_whole_scene(functools.partial(self.scene, timeout_s=timeout_s))
-        write_scene_file(path, [info.spec() for info in scene.objects], scene.tolerance)
-        return scene
+        return self._run(calls.export_scene(path, timeout_s))
 
     # ---- queries ----
 
@@ -233,17 +227,12 @@ class Client(ClosesOnExit, SceneEditor):
         timeout_s: float | None = None,
     ) -> RayHit:
         """The first surface the segment origin -> origin + max_distance * direction hits
-        (direction non-zero, normalised by the server; max_distance m, > 0): the first
-        surface crossing from either side, alike for every representation. From inside
-        a solid that is where the ray leaves it (normal turned back towards the origin);
-        from a surface, distance 0 when the ray goes into the solid."""
-        message = pb.RayCast(
-            origin=codec.vec3(check.vector3(origin, "origin")),
-            direction=codec.vec3(check.nonzero_vector3(direction, "direction")),
-            max_distance=check.positive(max_distance, "max_distance"),
-        )
-        reply = self._call("ray_cast", message, timeout_s)
-        return _decoded(codec.ray_hit_from, _body(reply, "ray_hit", pb.RayHit))
+        (origin m and direction (3,) in W, direction non-zero, normalised by the server;
+        max_distance m, > 0): the first surface crossing from either side, alike for
+        every representation. From inside a solid that is where the ray leaves it
+        (normal turned back towards the origin); from a surface, distance 0 when the ray
+        goes into the solid."""
+        return self._run(calls.ray_cast(origin, direction, max_distance, timeout_s))
 
     def ray_cast_batch(
         self,
@@ -253,198 +242,89 @@ class Client(ClosesOnExit, SceneEditor):
         *,
         timeout_s: float | None = None,
     ) -> RayHits:
-        """The first hits of many segments at once: origins and directions (N, 3), each
-        direction non-zero; segment i runs origins[i] -> origins[i] + max_distance *
-        directions[i] / |directions[i]|. Meshes on the Embree backend trace them in
-        packets. A segment that only touches a surface counts as a hit."""
-        origins = check.points(origins, "origins")
-        directions = check.points(directions, "directions")
-        if directions.shape != origins.shape:
-            raise LocalError(
-                f"directions has {len(directions)} rows and origins {len(origins)}; "
-                "one direction per origin"
-            )
-        if np.any(np.linalg.norm(directions, axis=1) == 0):
-            row = int(np.argmax(np.linalg.norm(directions, axis=1) == 0))
-            raise LocalError(f"directions[{row}] is zero; every segment needs a direction")
-        message = pb.RayCastBatch(max_distance=check.positive(max_distance, "max_distance"))
-        message.origins.extend(origins.ravel().tolist())
-        message.directions.extend(directions.ravel().tolist())
-        reply = self._call("ray_cast_batch", message, timeout_s)
-        return _decoded(codec.ray_hits_from, _body(reply, "ray_hits", pb.RayHits))
+        """The first hits of many segments at once, in one request (m, in W): origins
+        and directions (N, 3), each direction non-zero; segment i runs origins[i] ->
+        origins[i] + max_distance * directions[i] / |directions[i]|. One origin of shape
+        (3,) with directions (N, 3) casts a fan of rays from that point (MuJoCo's
+        mj_multiRay; the origin is sent once), and one direction (3,) with origins (N,
+        3) casts parallel rays. Meshes on the Embree backend trace them in packets. A
+        segment that only touches a surface counts as a hit. At most MAX_BATCH_ROWS
+        (1,000,000) segments: LocalError beyond."""
+        return self._run(calls.ray_cast_batch(origins, directions, max_distance, timeout_s))
 
     def closest_point(
         self, point: ArrayLike, max_distance: float = 1.0, *, timeout_s: float | None = None
     ) -> ClosestPoint:
-        """The surface point nearest to point within max_distance (m, > 0)."""
-        message = pb.ClosestPoint(
-            point=codec.vec3(check.vector3(point, "point")),
-            max_distance=check.positive(max_distance, "max_distance"),
-        )
-        reply = self._call("closest_point", message, timeout_s)
-        return _decoded(
-            codec.closest_point_from, _body(reply, "closest_point", pb.ClosestPointResult)
-        )
+        """The surface point nearest to point ((3,) m in W) within max_distance (m,
+        > 0)."""
+        return self._run(calls.closest_point(point, max_distance, timeout_s))
+
+    def closest_point_batch(
+        self, points: ArrayLike, max_distance: float = 1.0, *, timeout_s: float | None = None
+    ) -> ClosestPoints:
+        """closest_point for each row of points ((N, 3) m in W, finite) at once, in one
+        request, against one scene version: arrays of N rows (ClosestPoints: found,
+        signed_distance, point, normal, object_index). max_distance (m, > 0) is the same
+        for every point. At most MAX_BATCH_ROWS (1,000,000) points: LocalError beyond."""
+        return self._run(calls.closest_point_batch(points, max_distance, timeout_s))
 
     def find_contacts(
         self, center: ArrayLike, radius: float = 0.0, *, timeout_s: float | None = None
     ) -> list[Contact]:
-        """The objects a sphere of radius (m, >= 0; 0: a point) at center touches."""
-        message = pb.FindContacts(
-            center=codec.vec3(check.vector3(center, "center")),
-            radius=check.non_negative(radius, "radius"),
-        )
-        reply = self._call("find_contacts", message, timeout_s)
-        return _decoded(codec.contacts_from, _body(reply, "contacts", pb.ContactsResult))
+        """The objects a sphere of radius (m, >= 0; 0: a point) at center ((3,) m in W)
+        touches, in scene order."""
+        return self._run(calls.find_contacts(center, radius, timeout_s))
+
+    def find_contacts_batch(
+        self, centers: ArrayLike, radius: ArrayLike = 0.0, *, timeout_s: float | None = None
+    ) -> ContactsBatch:
+        """find_contacts for the spheres at each row of centers ((N, 3) m in W) at once,
+        in one request, against one scene version: radius (m, >= 0) one for all or (N,)
+        one per center. The contacts come laid end to end with each center's count and
+        offset (ContactsBatch; contacts_of(i) gives center i's as find_contacts would).
+        At most MAX_BATCH_ROWS (1,000,000) centers, and the server answers at most
+        1,000,000 contacts (RemoteError RESOURCE_EXHAUSTED beyond: fewer centers or a
+        smaller radius)."""
+        return self._run(calls.find_contacts_batch(centers, radius, timeout_s))
 
     # ---- sessions ----
 
     def open_session(
-        self,
-        device_type: str = "impedance",
-        *,
-        degrees_of_freedom: int = 3,
-        max_force: float = 10.0,
-        max_velocity: float = 2.0,
-        rate_hz: float = 1000.0,
-        max_force_rate: float = 0.0,
-        avatar: str = "point",
-        avatar_radius: float = 0.0,
-        method: str = "default",
-        force_shading: bool = False,
-        passivity: bool = False,
-        virtual_mass: float = 0.0,
-        virtual_damping: float = 0.0,
-        start: ArrayLike = (0, 0, 0),
-        session_timeout_s: float = 0.0,
-        remote_mode: str = "direct",
-        timeout_s: float | None = None,
+        self, device_type: str = "impedance", **options: Unpack[SessionOptions]
     ) -> SessionInfo:
-        """Opens a device session (the capability handshake). device_type "impedance"
-        (position in, force out) or "admittance" (force in, pose out); max_force (N, in
-        (0, 1e4]) and max_velocity (m/s, in (0, 100]) the device's limits; rate_hz its
-        state rate (in [10, 10000]); max_force_rate N/s (0: none); avatar "point" or
-        "sphere" (avatar_radius m in (0, 1]); method "default", "penalty", "god_object"
-        or "finger_proxy"; virtual_mass (kg, in [1e-3, 1e3]) and virtual_damping (N·s/m,
-        in [0, 1e5]) for admittance (0: the server's 1 kg, 20 N·s/m); start: the
-        device's position now; session_timeout_s: reclaim after this long without states
-        (in [0.15, 3600]; 0: 2 s); remote_mode "direct" (the device renders each
-        command's force) or "local_model" (impedance only: the commands carry models of
-        the scene near the device, which renders its force itself: DeviceSession.render).
-        The ranges are _validate.RANGES, the server's."""
-        if degrees_of_freedom not in (3, 6):
-            raise LocalError(f"degrees_of_freedom is {degrees_of_freedom!r}; it must be 3 or 6")
-        check.choice(device_type, "device_type", tuple(DEVICE_TYPES))
-        check.choice(avatar, "avatar", tuple(AVATARS))
-        check.choice(method, "method", tuple(FORCE_METHODS))
-        check.choice(remote_mode, "remote_mode", tuple(REMOTE_MODES))
-        if remote_mode == "local_model" and device_type != "impedance":
-            raise LocalError(
-                "remote_mode is 'local_model' for an admittance device; a local model is for "
-                "impedance devices"
+        """Opens a device session (the capability handshake): device_type "impedance"
+        (position in, force out) or "admittance" (force in, pose out), and the device's
+        limits and how to render for it (SessionOptions). The SessionInfo is what
+        DeviceSession(info) speaks the realtime channel with."""
+        return self._run(
+            calls.open_session(
+                self._sessions,
+                self._connection.peer_host,
+                self._session_closer,
+                device_type,
+                **options,
             )
-        if avatar == "sphere":
-            radius = check.limited(avatar_radius, "avatar_radius", "avatar_radius")
-        else:
-            radius = check.number(avatar_radius, "avatar_radius")
-            if radius != 0:
-                raise LocalError(f"avatar_radius is {radius!r}; a point avatar has radius 0")
-        rate = check.limited(rate_hz, "rate_hz", "rate_hz")
-        message = pb.OpenSession(
-            device_type=DEVICE_TYPES[device_type],
-            degrees_of_freedom=degrees_of_freedom,
-            max_force=check.limited(max_force, "max_force", "max_force"),
-            max_velocity=check.limited(max_velocity, "max_velocity", "max_velocity"),
-            rate_hz=rate,
-            max_force_rate=check.limited(max_force_rate, "max_force_rate", "max_force_rate"),
-            avatar=AVATARS[avatar],
-            avatar_radius=radius,
-            method=FORCE_METHODS[method],
-            force_shading=force_shading,
-            passivity=passivity,
-            virtual_mass=check.limited_or_zero(
-                virtual_mass, "virtual_mass", "virtual_mass", "the server's 1 kg"
-            ),
-            virtual_damping=check.limited(virtual_damping, "virtual_damping", "virtual_damping"),
-            start=codec.vec3(check.vector3(start, "start")),
-            timeout_s=check.limited_or_zero(
-                session_timeout_s, "session_timeout_s", "session_timeout_s", "the server's 2 s"
-            ),
-            remote_mode=REMOTE_MODES[remote_mode],
         )
-        opened = _body(
-            self._call("open_session", message, timeout_s), "session_opened", pb.SessionOpened
-        )
-        if len(opened.session_key) != 32:
-            raise ProtocolError(f"session key is {len(opened.session_key)} bytes; it must be 32")
-        try:
-            udp_host, udp_port = parse_address(opened.udp_endpoint, "udp_endpoint")
-        except LocalError as exc:
-            raise ProtocolError(f"the server's {exc}") from exc
-        # a wildcard bind is reached where the control channel is
-        if udp_host in ("0.0.0.0", "::"):
-            udp_host = self._connection.peer_host
-        with self._sessions_lock:
-            self._sessions.add(opened.session_id)
-        return SessionInfo(
-            session_id=opened.session_id,
-            key=opened.session_key,
-            udp_host=udp_host,
-            udp_port=udp_port,
-            max_datagram=opened.max_datagram,
-            device_type=device_type,
-            rate_hz=rate,
-            close_session=functools.partial(self._close_own_session, opened.session_id),
-            remote_mode=remote_mode,
-            open_request=message.SerializeToString(),
-        )
+
+    def _session_closer(self, session_id: int) -> Callable[[], None]:
+        """What closing the DeviceSession of a session opened here does: closes the
+        session, unless it is closed or gone already (or this client is closed)."""
+
+        def close() -> None:
+            if not self._connection.closed:
+                self._run(calls.close_own_session(self._sessions, session_id))
+
+        return close
 
     def close_session(
         self, session_id: int, *, session_key: bytes = b"", timeout_s: float | None = None
     ) -> None:
         """Closes a device session. A session belongs to the connection that opened it:
         from another one (this client after reconnecting, say) pass the session_key its
-        SessionInfo holds (its key), else RemoteError PERMISSION_DENIED. Closing one this client
-        has closed already does nothing; RemoteError NOT_FOUND when the server has no
-        such session (never opened, or reclaimed after its timeout)."""
-        with self._sessions_lock:
-            if session_id in self._closed_sessions:
-                return
-        if not isinstance(session_key, bytes):
-            raise LocalError(f"session_key is {session_key!r}; it must be bytes")
-        try:
-            _body(
-                self._call(
-                    "close_session",
-                    pb.CloseSession(session_id=session_id, session_key=session_key),
-                    timeout_s,
-                ),
-                "done",
-                pb.Done,
-            )
-        except RemoteError as exc:
-            # the server has none: nothing of ours to close later
-            if exc.code == "NOT_FOUND":
-                with self._sessions_lock:
-                    self._sessions.discard(session_id)
-            raise
-        with self._sessions_lock:
-            self._sessions.discard(session_id)
-            self._closed_sessions[session_id] = None
-            while len(self._closed_sessions) > CLOSED_SESSIONS_REMEMBERED:
-                self._closed_sessions.popitem(last=False)
-
-    def _close_own_session(self, session_id: int) -> None:
-        """Closes a session this client opened, unless it is closed or gone already (the
-        client closed, the session closed, or the server reclaimed it)."""
-        with self._sessions_lock:
-            if session_id not in self._sessions or self._connection.closed:
-                return
-        try:
-            self.close_session(session_id)
-        except RemoteError as exc:
-            if exc.code != "NOT_FOUND":
-                raise
+        SessionInfo holds (its key), else RemoteError PERMISSION_DENIED. Closing one this
+        client has closed already does nothing; RemoteError NOT_FOUND when the server
+        has no such session (never opened, or reclaimed after its timeout)."""
+        self._run(calls.close_session(self._sessions, session_id, session_key, timeout_s))
 
     # ---- telemetry ----
 
@@ -459,18 +339,13 @@ class Client(ClosesOnExit, SceneEditor):
         session) and waits for the server's first sample (RemoteError if it refuses).
         Iterate the result for samples; each waits up to timeout_s (default: the
         client's timeout plus two sample periods)."""
-        rate = check.limited(rate_hz, "rate_hz", "subscribe_rate_hz")
-        wait_s = (
-            self.timeout_s + 2 / rate
-            if timeout_s is None
-            else check.positive(timeout_s, "timeout_s")
-        )
-        message = pb.Subscribe(rate_hz=rate, session_ids=list(session_ids))
+        message, wait_s = calls.subscribe_request(rate_hz, session_ids, self.timeout_s, timeout_s)
         connection = self._connection
         subscription_id = connection.send("subscribe", message, self.timeout_s, subscription=True)
         # the server answers a Subscribe at once: its first sample or an error
         try:
-            first = _telemetry(connection.next_subscription_reply(subscription_id, self.timeout_s))
+            reply = connection.next_subscription_reply(subscription_id, self.timeout_s)
+            first = calls.telemetry(reply)
         except BaseException:
             connection.end_subscription(subscription_id)
             raise
@@ -478,8 +353,7 @@ class Client(ClosesOnExit, SceneEditor):
 
     def stats(self, *, timeout_s: float | None = None) -> Stats:
         """The server's counters and its sessions' statistics now."""
-        reply = self._call("get_stats", pb.GetStats(), timeout_s)
-        return _decoded(codec.stats_from, _body(reply, "stats", pb.Stats))
+        return self._run(calls.stats(timeout_s))
 
 
 class Subscription(Iterator[Telemetry]):
@@ -514,7 +388,7 @@ class Subscription(Iterator[Telemetry]):
             return sample
         connection = self._client._connection
         try:
-            return _telemetry(connection.next_subscription_reply(self.subscription_id, wait_s))
+            return calls.telemetry(connection.next_subscription_reply(self.subscription_id, wait_s))
         except RemoteError:
             self._open = False
             connection.end_subscription(self.subscription_id)
@@ -528,12 +402,4 @@ class Subscription(Iterator[Telemetry]):
         connection = self._client._connection
         connection.end_subscription(self.subscription_id)
         if not connection.closed:
-            message = pb.Unsubscribe(subscription_id=self.subscription_id)
-            connection.request("unsubscribe", message, self._client.timeout_s)
-
-
-def _telemetry(reply: pb.Reply) -> Telemetry:
-    """The sample a subscription's reply carries; RemoteError for an Error reply."""
-    if reply.WhichOneof("body") == "error":
-        raise remote_error(reply.error, "subscribe")
-    return _decoded(codec.telemetry_from, _body(reply, "telemetry", pb.Telemetry))
+            self._client._run(calls.unsubscribe(self.subscription_id))

@@ -157,6 +157,80 @@ class Contact:
     depth: float
 
 
+@dataclass(frozen=True, eq=False)
+class ClosestPoints:
+    """A batch closest-point query's answers, one row per point in order: found (N,)
+    bool (False: no surface within the query's max_distance), signed_distance (N,) m
+    (negative inside a solid; +inf where not found), point (N, 3) the nearest surface
+    point and normal (N, 3) the unit outward normal there, both in the world frame W
+    (zeros where not found), and object_index (N,) the object's index in the scene the
+    server answered from (scene_version; the order Client.scene() lists them at that
+    version; -1 where not found). object_names names each index that occurs."""
+
+    found: NDArray[np.bool_]
+    signed_distance: FloatArray
+    point: FloatArray
+    normal: FloatArray
+    object_index: NDArray[np.int64]
+    object_names: dict[int, str]
+    scene_version: int
+
+    def __len__(self) -> int:
+        return len(self.found)
+
+    @property
+    def objects(self) -> list[str]:
+        """The object of each row by name ("" where not found)."""
+        return [self.object_names.get(int(i), "") for i in self.object_index]
+
+
+@dataclass(frozen=True, eq=False)
+class ContactsBatch:
+    """A batch contact query's answers: each query sphere's contacts (those
+    Client.find_contacts gives it, in scene order), laid end to end. counts (N,) says
+    how many sphere i has and offsets (N + 1,) where they are: rows offsets[i] up to
+    offsets[i + 1] of the contact arrays, which hold one row per contact: center_index
+    (M,) the sphere's index, object_index (M,) the object's index in the scene answered
+    from (scene_version; named in object_names), point (M, 3) the object's nearest
+    surface point and normal (M, 3) its unit outward normal, in the world frame W, and
+    depth (M,) m, >= 0 (radius - signed distance)."""
+
+    counts: NDArray[np.int64]
+    offsets: NDArray[np.int64]
+    center_index: NDArray[np.int64]
+    object_index: NDArray[np.int64]
+    point: FloatArray
+    normal: FloatArray
+    depth: FloatArray
+    object_names: dict[int, str]
+    scene_version: int
+
+    def __len__(self) -> int:
+        return len(self.counts)
+
+    @property
+    def objects(self) -> list[str]:
+        """The object of each contact row by name."""
+        return [self.object_names.get(int(i), "") for i in self.object_index]
+
+    def contacts_of(self, center: int) -> list[Contact]:
+        """Sphere center's contacts as Client.find_contacts gives them; IndexError for
+        an index outside [0, N)."""
+        if not -len(self.counts) <= center < len(self.counts):
+            raise IndexError(f"center {center} is outside this batch of {len(self.counts)}")
+        center %= len(self.counts)
+        rows = range(int(self.offsets[center]), int(self.offsets[center + 1]))
+        return [
+            Contact(
+                object=self.object_names.get(int(self.object_index[k]), ""),
+                point=self.point[k].copy(),
+                normal=self.normal[k].copy(),
+                depth=float(self.depth[k]),
+            )
+            for k in rows
+        ]
+
+
 @dataclass(frozen=True)
 class SessionInfo:
     """An open device session: its id, the 32-byte key its datagrams are tagged with,

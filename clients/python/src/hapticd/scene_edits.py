@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Mapping
-from typing import Any, TypedDict, Unpack
+from typing import Any, Generic, TypedDict, TypeVar, Unpack
 
 import numpy as np
 import trimesh
@@ -44,6 +44,10 @@ from hapticd.v1 import hapticd_pb2 as pb
 
 # The most edits one Client.edit_scene may carry (the server's bound).
 MAX_EDITS_PER_BATCH = 100_000
+
+# What an edit returns: the new scene version (Client), an awaitable of it
+# (AsyncClient), or the edit's index in a batch (SceneEdits).
+EditT = TypeVar("EditT")
 
 
 class Placement(TypedDict, total=False):
@@ -85,18 +89,22 @@ def _check_keywords(call: str, given: Mapping[str, object], own: tuple[str, ...]
     )
 
 
-class SceneEditor:
+class SceneEditor(Generic[EditT]):
     """The scene edits: add_* (from a shape's parameters, a spec or a mesh file),
-    update_object, remove_object, set_material, move_kinematic. Subclasses say what an
-    edit does (_edit) and how to read an object's material (_current_material)."""
+    update_object, remove_object, set_material, move_kinematic. Each returns EditT:
+    the new scene version for a Client, an awaitable of it for an AsyncClient, the
+    edit's index for SceneEdits. Subclasses say what an edit does (_edit) and how a
+    material's named fields are changed (_edit_material_fields)."""
 
-    def _edit(self, body_name: str, body: Message, timeout_s: float | None) -> int:
+    def _edit(self, body_name: str, body: Message, timeout_s: float | None) -> EditT:
         raise NotImplementedError
 
-    def _current_material(self, name: str, timeout_s: float | None) -> Material | None:
+    def _edit_material_fields(
+        self, name: str, changes: dict[str, Any], timeout_s: float | None
+    ) -> EditT:
         raise NotImplementedError
 
-    def add_object(self, spec: ObjectSpec, *, timeout_s: float | None = None) -> int:
+    def add_object(self, spec: ObjectSpec, *, timeout_s: float | None = None) -> EditT:
         """Adds an object; RemoteError ALREADY_EXISTS when the name is taken."""
         if not isinstance(spec, ObjectSpec):
             raise LocalError(f"spec is {spec!r}; it must be an ObjectSpec")
@@ -104,30 +112,30 @@ class SceneEditor:
         codec.fill_object(message.object, spec)
         return self._edit("add_object", message, timeout_s)
 
-    def _add(self, name: str, shape: Shape, placement: Placement) -> int:
+    def _add(self, name: str, shape: Shape, placement: Placement) -> EditT:
         timeout_s = placement.pop("timeout_s", None)
         return self.add_object(_spec(name, shape, placement), timeout_s=timeout_s)
 
-    def add_sphere(self, name: str, radius: float, **placement: Unpack[Placement]) -> int:
+    def add_sphere(self, name: str, radius: float, **placement: Unpack[Placement]) -> EditT:
         """Adds a sphere of radius (m) centred at position."""
         _check_keywords("add_sphere", placement)
         return self._add(name, Sphere(radius), placement)
 
-    def add_box(self, name: str, half_extents: ArrayLike, **placement: Unpack[Placement]) -> int:
+    def add_box(self, name: str, half_extents: ArrayLike, **placement: Unpack[Placement]) -> EditT:
         """Adds a box of half_extents (m, (3,), along its axes) centred at position."""
         _check_keywords("add_box", placement)
         return self._add(name, Box(check.as_floats(half_extents, "half_extents")), placement)
 
     def add_capsule(
         self, name: str, radius: float, half_length: float, **placement: Unpack[Placement]
-    ) -> int:
+    ) -> EditT:
         """Adds a capsule: radius (m) around a segment of half_length (m) along its z axis."""
         _check_keywords("add_capsule", placement)
         return self._add(name, Capsule(radius, half_length), placement)
 
     def add_plane(
         self, name: str, normal: ArrayLike | None = None, **placement: Unpack[Placement]
-    ) -> int:
+    ) -> EditT:
         """Adds the half-space behind a plane through position: its outward normal is the
         body's z axis, or `normal` (non-zero, (3,)) when given instead of a rotation."""
         _check_keywords("add_plane", placement, ("normal",))
@@ -137,7 +145,7 @@ class SceneEditor:
             placement["rotation"] = _rotation_to_z(check.nonzero_vector3(normal, "normal"))
         return self._add(name, Plane(), placement)
 
-    def add_convex(self, name: str, points: ArrayLike, **placement: Unpack[Placement]) -> int:
+    def add_convex(self, name: str, points: ArrayLike, **placement: Unpack[Placement]) -> EditT:
         """Adds the convex hull of points (m, (N, 3), N >= 4, in the body frame)."""
         _check_keywords("add_convex", placement)
         return self._add(name, Convex(check.as_floats(points, "points")), placement)
@@ -150,7 +158,7 @@ class SceneEditor:
         representation: str = "auto",
         ray_backend: str = "default",
         **placement: Unpack[Placement],
-    ) -> int:
+    ) -> EditT:
         """Adds a triangle mesh: vertices (m, (N, 3)) and triangles ((M, 3) integer vertex
         indices, counter-clockwise seen from outside), or a trimesh.Trimesh in place of
         vertices (and no triangles: its faces are), rendered as `representation`
@@ -185,7 +193,7 @@ class SceneEditor:
         representation: str = "auto",
         scale: float = 1.0,
         **placement: Unpack[Placement],
-    ) -> int:
+    ) -> EditT:
         """Adds the mesh of an OBJ, STL or PLY file, its coordinates times scale (e.g.
         0.001 for a file in millimetres)."""
         _check_keywords("add_mesh_file", placement, ("representation", "scale"))
@@ -193,7 +201,7 @@ class SceneEditor:
         vertices, triangles = read_mesh_file(path)
         return self._add(name, Mesh(vertices * scale, triangles, representation), placement)
 
-    def update_object(self, spec: ObjectSpec, *, timeout_s: float | None = None) -> int:
+    def update_object(self, spec: ObjectSpec, *, timeout_s: float | None = None) -> EditT:
         """Replaces the object of spec's name with spec; RemoteError NOT_FOUND if none."""
         if not isinstance(spec, ObjectSpec):
             raise LocalError(f"spec is {spec!r}; it must be an ObjectSpec")
@@ -201,14 +209,14 @@ class SceneEditor:
         codec.fill_object(message.object, spec)
         return self._edit("update_object", message, timeout_s)
 
-    def remove_object(self, name: str, *, timeout_s: float | None = None) -> int:
+    def remove_object(self, name: str, *, timeout_s: float | None = None) -> EditT:
         """Removes the object called name; RemoteError NOT_FOUND if there is none."""
         message = pb.RemoveObject(name=check.object_name(name))
         return self._edit("remove_object", message, timeout_s)
 
     def set_material(
         self, name: str, material: Material | dict[str, Any], *, timeout_s: float | None = None
-    ) -> int:
+    ) -> EditT:
         """Changes the material of the object called name. A dict changes only the
         fields it names, e.g. {"damping": 3}: the others keep the object's values, read
         from the server's scene first (two requests, so an edit another client makes in
@@ -217,12 +225,9 @@ class SceneEditor:
         such object."""
         check.object_name(name)
         if isinstance(material, dict):
-            changes = check_material_fields(material)
-            current = self._current_material(name, timeout_s)
-            new = material_from(changes) if current is None else current.updated(changes)
-        else:
-            new = material_from(material)
-        message = pb.SetMaterial(name=name, material=codec.material_message(new))
+            return self._edit_material_fields(name, check_material_fields(material), timeout_s)
+        whole = codec.material_message(material_from(material))
+        message = pb.SetMaterial(name=name, material=whole)
         return self._edit("set_material", message, timeout_s)
 
     def move_kinematic(
@@ -234,7 +239,7 @@ class SceneEditor:
         angular_velocity: ArrayLike = (0, 0, 0),
         *,
         timeout_s: float | None = None,
-    ) -> int:
+    ) -> EditT:
         """Moves a kinematic object to a pose (rotation as in Placement), with its
         velocities from now on (m/s, rad/s); RemoteError if it is static."""
         message = pb.MoveKinematic(
@@ -254,7 +259,7 @@ class SceneEditor:
         return self._edit("move_kinematic", message, timeout_s)
 
 
-class SceneEdits(SceneEditor):
+class SceneEdits(SceneEditor[int]):
     """A batch of scene edits, applied in order as one by Client.edit_scene. Each edit
     method returns the edit's index in the batch (the index the server's errors name).
     set_material needs a whole Material here (a batch cannot read the server's scene),
@@ -280,7 +285,9 @@ class SceneEdits(SceneEditor):
         self._edits.append(edit)
         return len(self._edits) - 1
 
-    def _current_material(self, name: str, timeout_s: float | None) -> Material | None:
+    def _edit_material_fields(
+        self, name: str, changes: dict[str, Any], timeout_s: float | None
+    ) -> int:
         raise LocalError(
             f"set_material({name!r}, ...) in a batch needs a whole Material, not a dict: a "
             "batch cannot read the server's scene (Client.set_material can)"

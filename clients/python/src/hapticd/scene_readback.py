@@ -5,12 +5,17 @@ request of its own. A moving scene changes version every millisecond, so the mes
 read later are matched to the first reading by name and shape digest (which moving
 does not change); a mesh whose shape changed in between (an update) makes the whole
 read start again, at most READ_ATTEMPTS times.
+
+Written sans I/O, as the clients' calls are (_calls.py): read(**mesh_data) is the call
+that reads the scene once, and read_whole_scene is a call made of such calls, which
+Client and AsyncClient drive alike.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Generator, Sequence
+from typing import Any
 
 from hapticd.errors import HapticdError, RemoteError
 from hapticd.results import ObjectInfo, SceneInfo
@@ -20,21 +25,23 @@ READ_ATTEMPTS = 3
 # The server's refusals of a reply that is too large.
 TOO_LARGE = ("RESOURCE_EXHAUSTED", "FRAME_TOO_LARGE")
 
-SceneReader = Callable[..., SceneInfo]
+# A call (_calls.Call): yields requests, is sent their replies, returns its result.
+ReadCall = Generator[Any, Any, SceneInfo]
+SceneReader = Callable[..., ReadCall]
 
 
-def read_whole_scene(read: SceneReader) -> SceneInfo:
+def read_whole_scene(read: SceneReader) -> Generator[Any, Any, SceneInfo]:
     """The scene with every mesh's data; read(include_mesh_data=..., mesh_data_for=...)
-    is a Client's scene (with its timeout bound). HapticdError when a mesh keeps
-    changing while it is read."""
+    is the call reading the scene once (_calls.scene with its timeout bound).
+    HapticdError when a mesh keeps changing while it is read."""
     try:
-        return read(include_mesh_data=True)
+        return (yield from read(include_mesh_data=True))
     except RemoteError as exc:
         if exc.code not in TOO_LARGE:
             raise
     for _ in range(READ_ATTEMPTS):
-        scene = read()
-        objects = _with_meshes(read, scene.objects)
+        scene = yield from read()
+        objects = yield from _with_meshes(read, scene.objects)
         if objects is not None:
             return dataclasses.replace(scene, objects=objects)
     raise HapticdError(
@@ -43,7 +50,9 @@ def read_whole_scene(read: SceneReader) -> SceneInfo:
     )
 
 
-def _with_meshes(read: SceneReader, objects: Sequence[ObjectInfo]) -> list[ObjectInfo] | None:
+def _with_meshes(
+    read: SceneReader, objects: Sequence[ObjectInfo]
+) -> Generator[Any, Any, list[ObjectInfo] | None]:
     """objects with each mesh's data read on its own, or None when a mesh's shape
     changed (or it went) since objects were read."""
     result: list[ObjectInfo] = []
@@ -52,7 +61,7 @@ def _with_meshes(read: SceneReader, objects: Sequence[ObjectInfo]) -> list[Objec
             result.append(info)
             continue
         try:
-            alone = read(mesh_data_for=[info.name]).object(info.name)
+            alone = (yield from read(mesh_data_for=[info.name])).object(info.name)
         except (KeyError, RemoteError) as exc:
             if isinstance(exc, RemoteError) and exc.code != "NOT_FOUND":
                 raise
