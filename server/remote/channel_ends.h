@@ -75,6 +75,9 @@ class RendererEnd {
   void Observe(const force::TickOutput& output, const Vector3& step);
   // The environment the session's tick leaves: its force, touched object and avatar.
   void Remember(const force::TickOutput& output);
+  // Takes back a step the session did not take (it refused the input as non-finite or
+  // absurd): the input stays where it was.
+  void Retract(const Vector3& step) { input_W_ -= step; }
 
   const Vector3& input_W() const { return input_W_; }
   ChannelPort& port() { return port_; }

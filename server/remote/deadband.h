@@ -54,6 +54,9 @@ inline bool ExceedsDeadband(const Vector3& value, const Vector3& sent, double we
   return (value - sent).norm() > weber * sent.norm() + floor;
 }
 
+// What a device does with a state under a deadband with a keep-alive.
+enum class StateVerdict { kHold, kSend, kKeepalive };
+
 // The device's state as the deadband sends it up: a new one when the velocity leaves
 // its deadband or the receiver's prediction (the last position sent moved on at the
 // last velocity sent) is off by more than the position floor.
@@ -79,6 +82,16 @@ class StateDeadband {
     t_sent_ = t;
     p_sent_W_ = p_W;
     v_sent_W_ = v_W;
+  }
+  // Offer with a keep-alive: a state the deadband holds back is still sent (and
+  // remembered) when none has been for keepalive_s, to within half of period_s (the
+  // device's tick, so that a loop's clock does not miss it by a rounding).
+  StateVerdict OfferWithKeepalive(double t, const Vector3& p_W, const Vector3& v_W, double keepalive_s,
+                                  double period_s) {
+    if (Offer(t, p_W, v_W)) return StateVerdict::kSend;
+    if (t - last_sent_t() < keepalive_s - 0.5 * period_s) return StateVerdict::kHold;
+    Record(t, p_W, v_W);
+    return StateVerdict::kKeepalive;
   }
   // When the last state was sent (-infinity before the first).
   double last_sent_t() const { return sent_any_ ? t_sent_ : -std::numeric_limits<double>::infinity(); }

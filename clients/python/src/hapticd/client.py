@@ -288,6 +288,12 @@ class Client(ClosesOnExit, SceneEditor):
         start: ArrayLike = (0, 0, 0),
         session_timeout_s: float = 0.0,
         remote_mode: str = "direct",
+        tdpa: bool = False,
+        deadband: float = 0.0,
+        deadband_force_floor: float = 0.0,
+        deadband_position_floor: float = 0.0,
+        deadband_velocity_floor: float = 0.0,
+        keepalive_s: float = 0.0,
         timeout_s: float | None = None,
     ) -> SessionInfo:
         """Opens a device session (the capability handshake). device_type "impedance"
@@ -301,6 +307,11 @@ class Client(ClosesOnExit, SceneEditor):
         (in [0.15, 3600]; 0: 2 s); remote_mode "direct" (the device renders each
         command's force) or "local_model" (impedance only: the commands carry models of
         the scene near the device, which renders its force itself: DeviceSession.render).
+        tdpa: two-port time-domain passivity across the channel (impedance only: the
+        channel cannot generate energy; DeviceSession.limit_force is the device's end);
+        deadband: a perceptual deadband's Weber fraction (impedance only, in [0, 1), 0:
+        off) with its floors (N, m, m/s; 0: the server's 0.02, 1e-4, 0.002) and keep-alive
+        (s, in (0, 0.025]; 0: 0.01); see hapticd.proto's OpenSession.
         The ranges are _validate.RANGES, the server's."""
         if degrees_of_freedom not in (3, 6):
             raise LocalError(f"degrees_of_freedom is {degrees_of_freedom!r}; it must be 3 or 6")
@@ -308,6 +319,14 @@ class Client(ClosesOnExit, SceneEditor):
         check.choice(avatar, "avatar", tuple(AVATARS))
         check.choice(method, "method", tuple(FORCE_METHODS))
         check.choice(remote_mode, "remote_mode", tuple(REMOTE_MODES))
+        if not isinstance(tdpa, bool):
+            raise LocalError(f"tdpa is {tdpa!r}; it must be True or False")
+        weber = check.limited(deadband, "deadband", "deadband")
+        if (tdpa or weber > 0) and device_type != "impedance":
+            raise LocalError(
+                f"{'tdpa' if tdpa else 'deadband'} is set for an admittance device; two-port "
+                "passivity and the deadband are for impedance devices"
+            )
         if remote_mode == "local_model" and device_type != "impedance":
             raise LocalError(
                 "remote_mode is 'local_model' for an admittance device; a local model is for "
@@ -341,6 +360,29 @@ class Client(ClosesOnExit, SceneEditor):
                 session_timeout_s, "session_timeout_s", "session_timeout_s", "the server's 2 s"
             ),
             remote_mode=REMOTE_MODES[remote_mode],
+            tdpa=tdpa,
+            deadband=weber,
+            deadband_force_floor=check.limited_or_zero(
+                deadband_force_floor,
+                "deadband_force_floor",
+                "deadband_force_floor",
+                "the server's 0.02 N",
+            ),
+            deadband_position_floor=check.limited_or_zero(
+                deadband_position_floor,
+                "deadband_position_floor",
+                "deadband_position_floor",
+                "the server's 1e-4 m",
+            ),
+            deadband_velocity_floor=check.limited_or_zero(
+                deadband_velocity_floor,
+                "deadband_velocity_floor",
+                "deadband_velocity_floor",
+                "the server's 0.002 m/s",
+            ),
+            keepalive_s=check.limited_or_zero(
+                keepalive_s, "keepalive_s", "keepalive_s", "the server's 0.01 s"
+            ),
         )
         opened = _body(
             self._call("open_session", message, timeout_s), "session_opened", pb.SessionOpened
