@@ -366,6 +366,7 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const Connect
   if (local_model && !slot.models) slot.models = std::make_unique<ModelMailbox>();
   slot.sending_version = 0;
   slot.next_fragment = 0;
+  slot.fragments_sent = 0;
   slot.tdpa = channel.tdpa;
   slot.deadband = channel.deadband;
   slot.renderer_end = remote::RendererEnd(channel.tdpa);

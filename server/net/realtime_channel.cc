@@ -105,25 +105,30 @@ void RecordOutput(SessionSlot& slot, const force::TickOutput& output, uint64_t s
 }
 
 // A local-model session's device does not hold the newest model yet: a command carries
-// one of its fragments.
-bool FragmentDue(SessionSlot& slot) {
+// one of its fragments. For a prediction (a deadband's silent tick) only on the model's
+// first pass through its fragments: after that they go with the answers to states, at
+// the states' rate, rather than every tick while a model crosses a long round trip.
+bool FragmentDue(SessionSlot& slot, bool predicted) {
   if (!slot.local_model) return false;
   const EncodedModel& model = slot.models->Newest();
-  return model.session_id == slot.id && model.version > slot.telemetry.model_version;
+  if (model.session_id != slot.id || model.version <= slot.telemetry.model_version) return false;
+  const std::size_t count = std::max<std::size_t>(1, (model.size + kModelChunkSize - 1) / kModelChunkSize);
+  return !predicted || model.version != slot.sending_version || slot.fragments_sent < count;
 }
 
 // Deadband sessions: whether this tick's output differs from what the device has by more
 // than a person could tell: a fragment due (local model: the device renders its own
 // force), else a force out of the last one's band.
-bool OutOfBand(SessionSlot& slot, const force::TickOutput& output) {
-  if (slot.local_model) return FragmentDue(slot);
+bool OutOfBand(SessionSlot& slot, const force::TickOutput& output, bool predicted) {
+  if (slot.local_model) return FragmentDue(slot, predicted);
   return remote::ExceedsDeadband(output.f_W, slot.f_sent_W, slot.deadband.weber, slot.deadband.force_floor_n);
 }
 
 // Deadband sessions: whether a state's command goes out: the first, one whose last
 // command is a keep-alive old, or one out of band.
 bool CommandDue(SessionSlot& slot, const force::TickOutput& output, int64_t now_ns) {
-  return !slot.command_sent || now_ns - slot.command_sent_ns >= KeepaliveNs(slot) || OutOfBand(slot, output);
+  return !slot.command_sent || now_ns - slot.command_sent_ns >= KeepaliveNs(slot) ||
+         OutOfBand(slot, output, false);
 }
 
 }  // namespace
@@ -439,7 +444,7 @@ bool RealtimeChannel::HousekeepSession(SessionSlot& slot, SlotState state, int64
     slot.ramp_done = output.f_W.isZero(0);
   } else if (predicted) {
     // a prediction the device must hear of: for the state it was made from
-    if (OutOfBand(slot, output)) {
+    if (OutOfBand(slot, output, true)) {
       queued = QueueCommand(slot, output, slot.state_sequence, slot.state_send_ns, scene.version(),
                             v1::COMMAND_FLAGS_PREDICTED, reply, now_ns);
     } else {
@@ -476,10 +481,12 @@ bool RealtimeChannel::QueueCommand(SessionSlot& slot, const force::TickOutput& o
       if (model.version != slot.sending_version) {
         slot.sending_version = model.version;
         slot.next_fragment = 0;
+        slot.fragments_sent = 0;
       }
       command.model = Fragment(std::span<const uint8_t>(model.bytes.data(), model.size), model.version,
                                slot.next_fragment);
       slot.next_fragment = (slot.next_fragment + 1) % command.model.count;
+      ++slot.fragments_sent;
       ++telemetry.model_fragments_sent;
     }
   }

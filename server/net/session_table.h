@@ -128,6 +128,7 @@ struct SessionSlot {
   bool ramp_done = false;  // the watchdog's force reached zero; stop sending
   uint64_t sending_version = 0;  // the model whose fragments go out in turn
   uint32_t next_fragment = 0;
+  uint32_t fragments_sent = 0;  // of sending_version, so far
   // The server's end of the channel (impedance sessions), and the device's newest
   // position it steps the avatar input towards.
   remote::RendererEnd renderer_end{false};
