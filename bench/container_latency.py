@@ -15,15 +15,22 @@
    penalty and the god-object;
 4. rendering across delay, through the namespace topology: the proxy in dev1 presses the
    simulated hand into a 5000 N/m box on the server, its datagrams through hapticd-netem
-   in the router, for each remote mode (direct: the device renders the commands' force;
-   local-model: the device renders from the local models of the scene the commands
-   carry) over a grid of delay, jitter and loss: the net energy, the steady force's error
-   against the wall's k * d, how far the avatar went into the box, the models taken.
+   in the router, for each way of rendering (direct: the device renders the commands'
+   force; local-model: the device renders from the local models of the scene the
+   commands carry; each also with two-port passivity, --tdpa, and with a 10% perceptual
+   deadband, --deadband 0.1) over a grid of delay, jitter and loss: the net energy, the
+   channel's energy as its two ports measured it, the steady force's error against the
+   wall's k * d, how far the avatar went into the box, the models taken, and the messages
+   each way per tick.
 
 Percentiles are exact order statistics over every sample the proxy kept (none dropped).
 
     container_latency.py BIN_DIR OUT_DIR [--blocks 3] [--block-seconds 3] [--grid-seconds 3]
+        [--press-seconds 4] [--parts layers,udp,sim,remote]
         -> OUT_DIR/container_latency.{md,csv,png} and raw/container_latency.jsonl
+
+--parts runs only the parts named; the others' rows are read back from the last run's
+raw/container_latency.jsonl (and the Markdown says which run they come from).
 """
 
 from __future__ import annotations
@@ -33,6 +40,7 @@ import csv
 import json
 import os
 import pathlib
+import re
 import signal
 import statistics
 import subprocess
@@ -49,7 +57,16 @@ LOSSES = (0.0, 0.05, 0.2)
 JITTERED = ((5, 2), (20, 5))  # (delay, jitter) ms, no loss
 # part 4: (one-way delay ms, jitter ms, loss) each way, and the box pressed
 REMOTE_CELLS = ((0, 0, 0.0), (5, 1, 0.0), (20, 5, 0.05), (50, 5, 0.1), (50, 20, 0.1), (100, 10, 0.1), (250, 20, 0.2))
-REMOTE_MODES = ("direct", "local-model")
+# part 4: the ways of rendering, and the proxy's flags for each
+REMOTE_MODES = (
+    ("direct", ["--remote-mode", "direct"]),
+    ("direct + TDPA", ["--remote-mode", "direct", "--tdpa"]),
+    ("direct + deadband 10%", ["--remote-mode", "direct", "--deadband", "0.1"]),
+    ("local-model", ["--remote-mode", "local-model"]),
+    ("local-model + TDPA", ["--remote-mode", "local-model", "--tdpa"]),
+    ("local-model + deadband 10%", ["--remote-mode", "local-model", "--deadband", "0.1"]),
+)
+PARTS = {"layers": "layers", "udp": "udp grid", "sim": "sim grid", "remote": "remote grid"}
 BOX_STIFFNESS = 5000.0
 BOX_TOP = 0.1
 PRESS_PATH = "0,0,0,0.12;1,0,0,0.09;4,0,0,0.09"  # 2 cm above the top to 1 cm into it, held
@@ -225,7 +242,7 @@ def remote_grid(bin_dir: pathlib.Path, seconds: float, log) -> list[dict]:
                                      "--access-token-file", f"{secrets}/token", "--log-level", "warning"))
             try:
                 for delay, jitter, loss in REMOTE_CELLS:
-                    for mode in REMOTE_MODES:
+                    for mode, flags in REMOTE_MODES:
                         relay = Process(exec_in("router", str(bin_dir / "hapticd-netem"), "--listen", "10.77.1.1:9000",
                                                 "--forward", "10.77.0.2:7461", "--delay-ms", str(delay),
                                                 "--jitter-ms", str(jitter), "--loss", str(loss), "--seed", "1"))
@@ -233,8 +250,7 @@ def remote_grid(bin_dir: pathlib.Path, seconds: float, log) -> list[dict]:
                             report = run_json(exec_in(
                                 "dev1", str(bin_dir / "hapticd-proxy"), "--server", "10.77.0.2:7460", "--tls-ca",
                                 f"{secrets}/cert.pem", "--access-token-file", f"{secrets}/token", "--udp-via",
-                                "10.77.1.1:9000", "--seconds", str(seconds), "--path", PRESS_PATH, "--remote-mode",
-                                mode))
+                                "10.77.1.1:9000", "--seconds", str(seconds), "--path", PRESS_PATH, *flags))
                         finally:
                             summary = json.loads(relay.stop().strip().splitlines()[-1])
                         depth = BOX_TOP - report["final_position_m"][2]
@@ -245,7 +261,12 @@ def remote_grid(bin_dir: pathlib.Path, seconds: float, log) -> list[dict]:
                                      "force_error": (report["final_force_n"][2] - wall) / wall if depth > 0 else None,
                                      "avatar_in_mm": max(0.0, 1000 * (BOX_TOP - report["lowest_avatar_z_m"])),
                                      "max_force_n": report["max_force_n"], "models": report["models_adopted"],
-                                     "fragments": report["model_fragments"]})
+                                     "fragments": report["model_fragments"],
+                                     "channel_energy_j": report["channel_energy_j"],
+                                     # messages per tick each way: states the device sent, commands
+                                     # the server sent (its count, the newest command's number)
+                                     "up_per_tick": report["packets_sent"] / report["ticks"],
+                                     "down_per_tick": report["server_commands_sent"] / report["ticks"]})
                         log({"part": "remote grid", **rows[-1], "proxy": report, "relay": summary})
             finally:
                 server.stop()
@@ -296,6 +317,43 @@ def chart(layer_rows, udp_rows, sim_rows, path: pathlib.Path) -> None:
     figure.savefig(path, dpi=110)
 
 
+def describe_run() -> str:
+    """This run, as the Markdown's header says it: date, CPUs, load before it."""
+    model = next((line.split(":", 1)[1].strip() for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines()
+                  if line.startswith("model name")), "unknown CPU")
+    load = " ".join(pathlib.Path("/proc/loadavg").read_text().split()[:3])
+    return f"{time.strftime('%Y-%m-%d', time.gmtime())}, {os.cpu_count()} CPUs ({model}), load {load}"
+
+
+def earlier_rows(raw_path: pathlib.Path, md_path: pathlib.Path, parts: set[str]) -> tuple[dict, list, dict]:
+    """The rows of the parts not in parts, as the last run logged them, their raw
+    records to log again, and which run each part came from (a record's "run", else
+    the header of the Markdown that run wrote)."""
+    rows: dict[str, list[dict]] = {name: [] for name in PARTS.values()}
+    records = []
+    header = "an earlier run"
+    if md_path.is_file():
+        lines = md_path.read_text().splitlines()
+        for i, line in enumerate(lines):
+            if line[:4].isdigit() and line[4:5] == "-" and i + 1 < len(lines):
+                found = re.search(r"load average before the run: ([0-9. ]+?)\.(?: |$)", lines[i + 1])
+                load = f"load {found.group(1)}" if found else "load unknown"
+                header = f"{line.rstrip(',')}, {load}"
+                break
+    runs: dict[str, str] = {}
+    if raw_path.is_file():
+        for line in raw_path.read_text().splitlines():
+            record = json.loads(line)
+            if record["part"] in parts:
+                continue
+            record.setdefault("run", header)
+            records.append(record)
+            runs.setdefault(record["part"], record["run"])
+            rows[record["part"]].append({k: v for k, v in record.items()
+                                         if k not in ("part", "proxy", "relay", "run")})
+    return rows, records, runs
+
+
 def main() -> None:
     parser = argparse.ArgumentParser()
     parser.add_argument("bin_dir", type=pathlib.Path)
@@ -304,19 +362,31 @@ def main() -> None:
     parser.add_argument("--block-seconds", type=float, default=3)
     parser.add_argument("--grid-seconds", type=float, default=3)
     parser.add_argument("--press-seconds", type=float, default=4)
+    parser.add_argument("--parts", default=",".join(PARTS), help="comma-separated: " + ", ".join(PARTS))
     args = parser.parse_args()
-    raw = (args.out_dir / "raw" / "container_latency.jsonl").open("w")
-    log = lambda record: print(json.dumps(record), file=raw, flush=True)  # noqa: E731
+    wanted = args.parts.split(",")
+    if not wanted or any(part not in PARTS for part in wanted):
+        parser.error(f"--parts is {args.parts!r}; name some of {', '.join(PARTS)}")
+    parts = {PARTS[part] for part in wanted}
+    raw_path = args.out_dir / "raw" / "container_latency.jsonl"
+    kept, records, runs = earlier_rows(raw_path, args.out_dir / "container_latency.md", parts)
+    raw = raw_path.open("w")
+    for record in records:
+        print(json.dumps(record), file=raw, flush=True)
+    this_run = describe_run()
+    log = lambda record: print(json.dumps({**record, "run": this_run}), file=raw, flush=True)  # noqa: E731
 
-    layer_rows = layers(args.bin_dir, args.blocks, args.block_seconds, log)
-    udp_rows = udp_grid(args.bin_dir, args.grid_seconds, log)
-    sim_rows = sim_grid(args.bin_dir, log)
-    remote_rows = remote_grid(args.bin_dir, args.press_seconds, log)
+    layer_rows = layers(args.bin_dir, args.blocks, args.block_seconds, log) if "layers" in parts else kept["layers"]
+    udp_rows = udp_grid(args.bin_dir, args.grid_seconds, log) if "udp grid" in parts else kept["udp grid"]
+    sim_rows = sim_grid(args.bin_dir, log) if "sim grid" in parts else kept["sim grid"]
+    remote_rows = (remote_grid(args.bin_dir, args.press_seconds, log) if "remote grid" in parts
+                   else kept["remote grid"])
 
     with (args.out_dir / "container_latency.csv").open("w", newline="") as out:
         writer = csv.writer(out)
         writer.writerow(["part", "setting", "delay_ms", "jitter_ms", "loss", *QUANTILES, "lost", "energy_j",
-                         "penetration_mm", "max_force_n", "contacts"])
+                         "penetration_mm", "max_force_n", "contacts", "channel_energy_j", "up_per_tick",
+                         "down_per_tick"])
         for r in layer_rows:
             writer.writerow(["layers", f"{r['layer']} / {r['peer']} / block {r['block']}", "", "", "",
                              *[r[q] for q in QUANTILES], r["lost"], "", "", "", ""])
@@ -329,10 +399,16 @@ def main() -> None:
         for r in remote_rows:
             writer.writerow(["remote grid", r["mode"], r["delay_ms"], r["jitter_ms"], r["loss"],
                              *[r[q] for q in QUANTILES], r["lost"], r["energy_j"], r["avatar_in_mm"],
-                             r["max_force_n"], ""])
+                             r["max_force_n"], "", r.get("channel_energy_j", ""), r.get("up_per_tick", ""),
+                             r.get("down_per_tick", "")])
     chart(layer_rows, udp_rows, sim_rows, args.out_dir / "container_latency.png")
 
     md = []
+    reused = [name for name in PARTS.values() if name not in parts]
+    if reused:
+        md.append(f"This run ({this_run}): {', '.join(name for name in PARTS.values() if name in parts)}. "
+                  "Read back from raw/container_latency.jsonl: " +
+                  "; ".join(f"{name} from the run of {runs.get(name, 'an earlier run')}" for name in reused) + ".\n")
     md.append("## Layers: hapticd against a plain UDP echo between the same endpoints\n")
     md.append(f"hapticd-proxy at 1 kHz (a handle held 2 mm into the floor: every tick in contact), {args.blocks} "
               f"blocks of {args.block_seconds:g} s per peer, hapticd and the echo in turn; wire round trips "
@@ -378,23 +454,30 @@ def main() -> None:
     for r in sim_rows:
         md.append(f"| {r['method']} | {r['delay_ms']} | {r['loss']:.0%} | {r['energy_j']:+.4f} | "
                   f"{r['penetration_mm']:.2f} | {r['max_force_n']:.2f} | {r['contact_ticks']} |")
-    md.append("\n## Rendering across delay, through the namespace topology: direct against the local model\n")
+    md.append("\n## Rendering across delay, through the namespace topology: direct, the local model, TDPA, deadband\n")
     md.append(f"hapticd-proxy in dev1 presses the simulated hand into a {BOX_STIFFNESS:g} N/m box on the server "
               f"({args.press_seconds:g} s: from 2 cm above its top to 1 cm into it over 1 s, then held), its datagrams "
               "through hapticd-netem in the router (the delay, jitter and loss each way; TLS control channel). "
               "*direct*: the device renders each command's force as it comes; *local-model*: the device renders "
-              "the box itself from the local models the commands carry. *energy*: the net work the rendered force "
-              "did on the handle (positive: active); *force error*: the last force against the wall's k·d at the "
-              "handle's last depth (steady when small); *avatar in*: how far the avatar (proxy) went into the "
-              "box.\n")
-    md.append("| mode | delay ms | jitter ms | loss | rtt p50 µs | lost | energy J | depth mm | force error | "
-              "avatar in mm | max force N | models |")
-    md.append("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+              "the box itself from the local models the commands carry; *+ TDPA*: two-port time-domain passivity "
+              "across the channel (`--tdpa`); *+ deadband 10%*: perceptual deadband coding (`--deadband 0.1`, "
+              "keep-alive 10 ms). *energy*: the net work the rendered force did on the handle (positive: "
+              "active); *channel J*: the channel's net energy as its two ports measured it (the proxy's view: "
+              "its own end and the newest the server reported); *force error*: the last force against the "
+              "wall's k·d at the handle's last depth (steady when small); *avatar in*: how far the avatar (proxy) "
+              "went into the box; *up, down*: messages per tick, states the device sent and commands the server "
+              "sent.\n")
+    md.append("| mode | delay ms | jitter ms | loss | rtt p50 µs | lost | energy J | channel J | depth mm | "
+              "force error | avatar in mm | max force N | models | up | down |")
+    md.append("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for r in remote_rows:
         error = "n/a" if r["force_error"] is None else f"{r['force_error']:+.2%}"
+        channel = f"{r['channel_energy_j']:+.4f}" if "channel_energy_j" in r else "n/a"
+        up = f"{r['up_per_tick']:.2f}" if "up_per_tick" in r else "n/a"
+        down = f"{r['down_per_tick']:.2f}" if "down_per_tick" in r else "n/a"
         md.append(f"| {r['mode']} | {r['delay_ms']} | {r['jitter_ms']} | {r['loss']:.0%} | {r['p50']:.0f} | "
-                  f"{r['lost']} | {r['energy_j']:+.4f} | {r['depth_mm']:.3f} | {error} | {r['avatar_in_mm']:.3f} | "
-                  f"{r['max_force_n']:.2f} | {r['models']} |")
+                  f"{r['lost']} | {r['energy_j']:+.4f} | {channel} | {r['depth_mm']:.3f} | {error} | "
+                  f"{r['avatar_in_mm']:.3f} | {r['max_force_n']:.2f} | {r['models']} | {up} | {down} |")
     print("\n".join(md))
 
 

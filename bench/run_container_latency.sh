@@ -8,12 +8,25 @@
 # the runs in bench/results/raw/container_latency.jsonl. About 5 minutes after the build
 # and the image (deploy/containers.sh).
 #   bench/run_container_latency.sh [--blocks 3] [--block-seconds 3] [--grid-seconds 3] [--press-seconds 4]
+#                                  [--parts layers,udp,sim,remote]
+# --parts reruns only those parts (the others' rows come from the last run's raw log);
+# without layers the container image is not needed. The remote grid alone takes about
+# 5 minutes (7 cells x 6 ways of rendering x the press).
 set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"
 bash deploy/install.sh
 bash deploy/build.sh normal >/dev/null
-bash deploy/containers.sh
+parts="layers"
+for ((i = 1; i <= $#; i++)); do
+  case "${!i}" in
+    --parts) j=$((i + 1)); parts="${!j}" ;;
+    --parts=*) parts="${!i#--parts=}" ;;
+  esac
+done
+if [[ ",$parts," == *",layers,"* ]]; then
+  bash deploy/containers.sh
+fi
 
 load_before="$(cut -d' ' -f1-3 /proc/loadavg)"
 mkdir -p bench/results/raw

@@ -104,6 +104,8 @@ def test_rendering_the_delayed_force_instead_is_active(bin_dir, box_scene):
     report = press(bin_dir, box_scene, "direct")
     assert report["remote_mode"] == "direct" and report["models_adopted"] == 0
     assert report["energy_j"] > 0.1
+    # the channel's two ports (reported in every session) saw it generate that energy
+    assert report["tdpa"] is False and report["channel_energy_j"] > 0.1
     # it never settles: the hand does not rest half a millimetre in at the end
     depth = TOP - report["final_position_m"][2]
     steady = report["final_force_n"][2] == pytest.approx(STIFFNESS * depth, rel=0.02) and 0.0003 < depth < 0.001

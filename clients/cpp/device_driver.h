@@ -44,6 +44,9 @@ struct DeviceCaps {
   double max_velocity = 2;     // m/s, > 0
   double rate_hz = 1000;       // the rate the device wants to be served at
   Vector3 start_W = Vector3::Zero();  // where the handle is now, in W
+  // kg, > 0: the least mass a change of force moves (the handle's; a hand adds to it).
+  // Two-port passivity's device end predicts a tick's work with it (remote::DeviceEnd).
+  double handle_mass = 0.05;
 };
 
 // One sample of the device, taken by Read. Fields a device cannot sense stay at their

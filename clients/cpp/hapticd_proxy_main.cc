@@ -129,7 +129,12 @@ void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const 
       "\"energy_j\": {:.6f}, \"lowest_z_m\": {}, \"lowest_avatar_z_m\": {}, \"final_force_n\": {}, "
       "\"final_position_m\": {}, \"remote_mode\": \"{}\", \"models_adopted\": {}, \"model_version\": {}, "
       "\"model_fragments\": {}, \"models_completed\": {}, \"models_rejected\": {}, \"model_blends\": {}, "
-      "\"contacts\": {}, \"watchdog_trips\": {}, \"session_ended\": \"{}\", \"cpu_s\": {:.3f}}}\n",
+      "\"contacts\": {}, \"watchdog_trips\": {}, \"session_ended\": \"{}\", \"cpu_s\": {:.3f}, "
+      "\"tdpa\": {}, \"tdpa_activations\": {}, \"device_energy_in_j\": {:.9f}, \"device_energy_out_j\": {:.9f}, "
+      "\"server_energy_in_j\": {:.9f}, \"server_energy_out_j\": {:.9f}, \"channel_energy_j\": {:.9f}, "
+      "\"deadband\": {}, \"keepalive_ms\": {}, \"states_held\": {}, \"keepalives\": {}, "
+      "\"commands_received\": {}, \"commands_predicted\": {}, \"commands_held\": {}, "
+      "\"server_commands_sent\": {}}}\n",
       fmt::format("{}:{}", options.target.host, options.target.port), options.echo ? "echo" : "hapticd",
       options.sessions, options.threads, options.rate_hz, options.seconds, priority, r.ticks, Us(r.rtt.p50), Us(r.rtt.p90), Us(r.rtt.p99),
       Us(r.rtt.p999), Us(r.rtt.max), Us(r.wire_rtt.p50), Us(r.wire_rtt.p99), Us(r.wire_rtt.p999),
@@ -140,7 +145,11 @@ void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const 
       OrNull(r.lowest_z_m), OrNull(r.lowest_avatar_z_m), JsonVector(r.final_f_W), JsonVector(r.final_p_W),
       options.local_model ? "local-model" : "direct", r.models.adopted, r.models.version, r.models.fragments,
       r.models.completed, r.models.rejected, r.models.blends, r.contacts, r.watchdog_trips,
-      r.session_ended, cpu_s);
+      r.session_ended, cpu_s, options.tdpa, r.tdpa_activations, r.device_energy.in, r.device_energy.out,
+      r.server_end.energy_in, r.server_end.energy_out, r.channel_energy_j(), options.deadband.weber,
+      options.deadband.keepalive_s * 1000, r.states_held, r.keepalives,
+      r.packets.answered + r.packets.late + r.packets.predicted, r.packets.predicted, r.server_end.commands_held,
+      r.server_end.commands_sent);
   std::fflush(stdout);
 }
 
@@ -180,6 +189,14 @@ int Run(const ProxyOptions& options) {
       drivers.push_back(MakeDriver(options));
       hapticd::v1::OpenSession open = MakeOpenSession(drivers.back()->caps());
       if (options.local_model) open.set_remote_mode(hapticd::v1::REMOTE_MODE_LOCAL_MODEL);
+      open.set_tdpa(options.tdpa);
+      if (options.deadband.on()) {
+        open.set_deadband(options.deadband.weber);
+        open.set_deadband_force_floor(options.deadband.force_floor_n);
+        open.set_deadband_position_floor(options.deadband.position_floor_m);
+        open.set_deadband_velocity_floor(options.deadband.velocity_floor_mps);
+        open.set_keepalive_s(options.deadband.keepalive_s);
+      }
       const SessionTicket ticket = client->OpenSession(open);
       session_ids.push_back(ticket.session_id);
       if (options.local_model) {
@@ -206,7 +223,8 @@ int Run(const ProxyOptions& options) {
   // the sessions dealt out to the loops in turn
   std::vector<std::vector<ProxyChannel>> shares(options.threads);
   for (std::size_t i = 0; i < drivers.size(); ++i) shares[i % shares.size()].push_back(
-      {drivers[i].get(), links[i].get(), i < locals.size() ? locals[i].get() : nullptr});
+      {drivers[i].get(), links[i].get(), i < locals.size() ? locals[i].get() : nullptr, options.tdpa,
+       options.deadband});
   std::vector<std::unique_ptr<ProxyLoop>> loops;
   std::vector<ProxyLoop*> loop_pointers;
   for (std::vector<ProxyChannel>& share : shares) {

@@ -31,6 +31,13 @@ DeviceReading NoReading() {
   return reading;
 }
 
+// The force as a device renders it: saturated at max_force, zero when not finite.
+Vector3 Saturated(const Vector3& f_W, double max_force) {
+  if (!f_W.allFinite()) return Vector3::Zero();
+  const double norm = f_W.norm();
+  return norm > max_force ? Vector3(f_W * (max_force / norm)) : f_W;
+}
+
 DeviceOutput OutputOf(const net::DeviceCommandSample& command) {
   DeviceOutput output;
   output.f_W = command.f_W;
@@ -49,6 +56,8 @@ ProxyLoop::ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> 
       link_set_(links_),
       held_W_(channels_.size(), Vector3::Zero()),
       readings_(channels_.size(), NoReading()),
+      sent_(channels_.size(), 0),
+      states_held_(channels_.size(), 0),
       rtt_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()),
       wire_rtt_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()),
       lateness_(static_cast<std::size_t>(TotalTicks(options))),
@@ -65,6 +74,10 @@ ProxyLoop::ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> 
     initial.p_W = caps.start_W;
     watchdogs_.emplace_back(initial, options_.hold_s, options_.ramp_s);
     kinds_.push_back(caps.kind);
+    caps_max_force_.push_back(caps.max_force);
+    device_ends_.emplace_back(channel.tdpa, caps.handle_mass);
+    device_ends_.back().Reset(caps.start_W);
+    deadbands_.emplace_back(channel.deadband);
   }
 }
 
@@ -78,6 +91,9 @@ void ProxyLoop::SendStates(double t, int64_t deadline_ns, ProxyReport& report) {
     }
     report.lowest_z_m = std::min(report.lowest_z_m, reading.p_W.z());
     readings_[i] = reading;
+    sent_[i] = 0;
+    const bool impedance = kinds_[i] == DeviceKind::kImpedance;
+    if (impedance) device_ends_[i].Sample(reading.p_W, reading.v_W, held_W_[i]);
     net::DeviceStateSample state;
     state.p_WD = reading.p_W;
     state.q_WD = reading.q_W;
@@ -93,7 +109,26 @@ void ProxyLoop::SendStates(double t, int64_t deadline_ns, ProxyReport& report) {
     }
     const int64_t rtt_us = links_[i]->rtt_ns() / 1000;
     state.rtt_us = static_cast<uint32_t>(std::clamp<int64_t>(rtt_us, 0, std::numeric_limits<uint32_t>::max()));
+    if (impedance) {
+      state.energy_in = device_ends_[i].energy().in;
+      state.energy_out = device_ends_[i].energy().out;
+    }
+    // the deadband: only what the server could not predict, and a keep-alive
+    const remote::DeadbandSettings& deadband = channels_[i].deadband;
+    if (impedance && deadband.on()) {
+      const remote::StateVerdict verdict =
+          deadbands_[i].OfferWithKeepalive(t, reading.p_W, reading.v_W, deadband.keepalive_s, 1 / options_.rate_hz);
+      if (verdict == remote::StateVerdict::kHold) {
+        ++states_held_[i];
+        ++report.states_held;
+        continue;
+      }
+      state.keepalive = verdict == remote::StateVerdict::kKeepalive;
+      report.keepalives += state.keepalive ? 1 : 0;
+      state.states_held = states_held_[i];
+    }
     if (!links_[i]->Send(state)) continue;
+    sent_[i] = 1;
     // how late the proxy itself sent it
     const int64_t late_ns = std::max<int64_t>(0, links_[i]->send_ns() - deadline_ns);
     send_lateness_.Record(late_ns);
@@ -101,11 +136,14 @@ void ProxyLoop::SendStates(double t, int64_t deadline_ns, ProxyReport& report) {
   }
 }
 
-void ProxyLoop::ApplyCommands(double t, double dt, ProxyReport& report) {
+void ProxyLoop::ApplyCommands(double t, double dt, double held_s, ProxyReport& report) {
   for (std::size_t i = 0; i < channels_.size(); ++i) {
     RealtimeLink& link = *links_[i];
     // the last state's answer in time is measured; without one, stop waiting for it
-    if (link.answered()) {
+    // (a tick whose state the deadband held back has none to wait for)
+    if (!sent_[i]) {
+      link.Expire();
+    } else if (link.answered()) {
       rtt_.Record(link.rtt_ns());
       report.contacts += link.command().contact && channels_[i].local == nullptr ? 1 : 0;
     } else {
@@ -125,6 +163,18 @@ void ProxyLoop::ApplyCommands(double t, double dt, ProxyReport& report) {
       output.tau_W.setZero();
       avatar_W = rendered.avatar_W;
       report.contacts += rendered.contact ? 1 : 0;
+    }
+    // two-port passivity: what the device lets out is bounded by what the server let in
+    if (kinds_[i] == DeviceKind::kImpedance) {
+      remote::DeviceEnd& end = device_ends_[i];
+      end.ReceiveOtherIn(link.server_end().energy_in);
+      if (channels_[i].tdpa) {
+        // saturated before (what the port predicts with) and after (its brake may add
+        // to it): the force held is the force rendered, as the observer counts it
+        const double max_force = caps_max_force_[i];
+        output.f_W = Saturated(end.Limit(Saturated(output.f_W, max_force), held_s), max_force);
+        report.tdpa_activations += end.port().active() ? 1 : 0;
+      }
     }
     channels_[i].driver->Apply(output);
     held_W_[i] = output.f_W;
@@ -151,6 +201,9 @@ ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
   const TickSchedule schedule(MonotonicNowNs() + period_ns, period_ns, options_.max_backlog_ticks);
   ProxyReport report;
   int64_t tick = 0;
+  // how long the force a tick applies is likely held: the last tick's length, skipped
+  // ticks included (after a stall, more are likely), never less than a period
+  double held_s = 1.0 / options_.rate_hz;
   while (tick < total_ticks && (stop == nullptr || !stop->load(std::memory_order_relaxed))) {
     const int64_t deadline_ns = schedule.DeadlineOf(tick);
     SleepUntilNs(deadline_ns);
@@ -160,7 +213,7 @@ ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
     // send, wait out the budget from the wake (never past the next deadline), apply
     SendStates(t, deadline_ns, report);
     link_set_.AwaitAll(std::min(woke_ns + options_.budget_ns, schedule.DeadlineOf(tick + 1)));
-    ApplyCommands(t, 1.0 / options_.rate_hz, report);
+    ApplyCommands(t, 1.0 / options_.rate_hz, held_s, report);
 
     // judge the tick, then move on (skipping ahead after a stall)
     const int64_t finished_ns = MonotonicNowNs();
@@ -171,6 +224,7 @@ ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
     report.overruns += timing.overran ? 1 : 0;
     const int64_t next = schedule.NextTick(tick, finished_ns);
     report.skipped_ticks += next - tick - 1;
+    held_s = static_cast<double>(next - tick) / options_.rate_hz;
     tick = next;
     // an ended session renders nothing more: stop rather than stream into silence
     if (const uint32_t ended = EndedFlags(); ended != 0) {
@@ -185,6 +239,11 @@ ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
     links_[i]->Drain();
     report.packets += links_[i]->counters();
     report.watchdog_trips += watchdogs_[i].trips();
+    if (kinds_[i] == DeviceKind::kImpedance) {
+      report.device_energy.in += device_ends_[i].energy().in;
+      report.device_energy.out += device_ends_[i].energy().out;
+      report.server_end += links_[i]->server_end();
+    }
     if (channels_[i].local != nullptr) report.models += channels_[i].local->counters();
   }
   report.rtt = rtt_.Summarize();
@@ -243,6 +302,12 @@ ProxyReport RunLoops(std::span<ProxyLoop* const> loops, int priority, const std:
     merged.lowest_avatar_z_m = std::min(merged.lowest_avatar_z_m, r.lowest_avatar_z_m);
     merged.models += r.models;
     merged.watchdog_trips += r.watchdog_trips;
+    merged.device_energy.in += r.device_energy.in;
+    merged.device_energy.out += r.device_energy.out;
+    merged.server_end += r.server_end;
+    merged.tdpa_activations += r.tdpa_activations;
+    merged.states_held += r.states_held;
+    merged.keepalives += r.keepalives;
     merged.dropped_samples += r.dropped_samples;
     if (merged.session_ended.empty()) merged.session_ended = r.session_ended;
   }

@@ -5,8 +5,12 @@
 // Theory of operation, tick k (due at start + k / rate_hz, tick_schedule.h):
 //
 //   sleep until the deadline (absolute) ---- woke: lateness = woke - deadline
-//   for each device: Read(t_k), send its state (held force = what it rendered since
-//                    its previous state, rtt_us = its last round trip); a state sent
+//   for each device: Read(t_k); its end of the channel observes the work the force
+//                    held since the last tick did (remote::DeviceEnd); send its state
+//                    (held force = what it rendered since its previous state, rtt_us =
+//                    its last round trip, the device end's energies) unless its deadband
+//                    holds it back (remote::StateDeadband; a keep-alive goes out when
+//                    nothing has for the session's keepalive_s); a state sent
 //                    later than the threshold after the deadline is the proxy's own
 //                    miss (a late state), whatever the server does
 //   wait for the commands until woke + budget, at most the next deadline (LinkSet)
@@ -15,7 +19,11 @@
 //                    previous tick, in time or late, goes to the watchdog; Apply the
 //                    watchdog's output (that command, or the held / ramping last one).
 //                    A local-model device renders its own force instead
-//                    (local_model_device.h) and sends its model version and proxy up
+//                    (local_model_device.h) and sends its model version and proxy up.
+//                    Under TDPA the force, saturated, goes through the device end's
+//                    LimitForce, its allowance the newest energy the server reported,
+//                    predicted over the last tick's length (longer after a stall: the
+//                    force is held across one, and the brake's bound m / dt with it)
 //   finished: a miss if the tick woke later than the threshold or ran past the next
 //             deadline
 //
@@ -37,6 +45,8 @@
 #include "clients/cpp/latency_stats.h"
 #include "clients/cpp/local_model_device.h"
 #include "clients/cpp/realtime_link.h"
+#include "server/remote/channel_ends.h"
+#include "server/remote/deadband.h"
 
 namespace hapticd::proxy {
 
@@ -57,6 +67,10 @@ struct ProxyChannel {
   DeviceDriver* driver = nullptr;
   RealtimeLink* link = nullptr;
   LocalModelDevice* local = nullptr;
+  // The channel as the session was opened (hapticd.v1.OpenSession): two-port passivity
+  // (impedance devices; the device's end runs here) and the deadband of its states.
+  bool tdpa = false;
+  remote::DeadbandSettings deadband;
 };
 
 // A run's outcome. Percentiles in ns.
@@ -85,6 +99,18 @@ struct ProxyReport {
   Vector3 final_f_W = Vector3::Zero();
   Vector3 final_p_W = Vector3::Zero();
   LocalModelCounters models;  // every local-model device's, summed
+  // The channel, every impedance session's summed: the device ends' energies, the
+  // server's as its commands reported them, and the ticks whose force the device's port
+  // cut (TDPA). channel_energy_j() is the net the channel put in (positive: generated).
+  remote::PortEnergy device_energy;
+  ServerEnd server_end;
+  uint64_t tdpa_activations = 0;
+  // Deadband: the states held back, and the keep-alives among those sent.
+  uint64_t states_held = 0;
+  uint64_t keepalives = 0;
+  double channel_energy_j() const {
+    return (device_energy.out - device_energy.in) + (server_end.energy_out - server_end.energy_in);
+  }
   uint64_t watchdog_trips = 0;  // device watchdog: holds that ran out
   std::size_t dropped_samples = 0;  // samples beyond the buffers (none when sized right)
   // The server said a session ended (closed or timed out): the run stops at once.
@@ -114,9 +140,10 @@ class ProxyLoop {
   // The tick's states: read every device and send; counts the states sent later than
   // the threshold after deadline_ns.
   void SendStates(double t, int64_t deadline_ns, ProxyReport& report);
-  // The tick's outputs (dt: its length): take the commands that came, apply what the
-  // watchdogs (or the local models) say.
-  void ApplyCommands(double t, double dt, ProxyReport& report);
+  // The tick's outputs (dt: its length; held_s: how long its force is likely held, the
+  // last tick's length with the ticks skipped, which TDPA's device end predicts over):
+  // take the commands that came, apply what the watchdogs (or the local models) say.
+  void ApplyCommands(double t, double dt, double held_s, ProxyReport& report);
 
   ProxyLoopOptions options_;
   std::vector<ProxyChannel> channels_;
@@ -125,7 +152,12 @@ class ProxyLoop {
   std::vector<CommandWatchdog> watchdogs_;
   std::vector<Vector3> held_W_;  // per channel: the force applied since its last state
   std::vector<DeviceKind> kinds_;
+  std::vector<double> caps_max_force_;  // per channel: the device's force limit, N
   std::vector<DeviceReading> readings_;  // per channel: this tick's (p_W NaN before the first)
+  std::vector<remote::DeviceEnd> device_ends_;   // per channel
+  std::vector<remote::StateDeadband> deadbands_;  // per channel
+  std::vector<uint8_t> sent_;  // per channel: a state went out this tick
+  std::vector<uint64_t> states_held_;  // per channel: held back by its deadband
   LatencyStats rtt_;
   LatencyStats wire_rtt_;
   LatencyStats lateness_;

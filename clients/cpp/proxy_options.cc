@@ -32,6 +32,21 @@ than the miss threshold after their tick's deadline).
   --remote-mode M      direct (default: the device renders each command's force) or
                        local-model (the device renders its force itself, from the local
                        models of the scene the commands carry; impedance only)
+  --tdpa               two-port time-domain passivity across the channel (impedance):
+                       the device limits the force it renders, the server the avatar's
+                       step into the scene, so that the channel cannot generate energy
+                       whatever the delay, jitter or loss (in direct mode it then renders
+                       no contact force: passive, not transparent)
+  --deadband W         perceptual deadband, Weber fraction in [0, 1) (default 0: off;
+                       impedance): a state goes up only when the server's prediction of
+                       it is off by more than the floors plus W, a command comes down
+                       only when its force leaves W |F| + the force floor; a keep-alive
+                       each way at least every --keepalive-ms
+  --deadband-force-floor N     in (0, 10] (default 0.02)
+  --deadband-position-floor M  m, in (0, 0.01] (default 0.0001)
+  --deadband-velocity-floor V  m/s, in (0, 1] (default 0.002)
+  --keepalive-ms K     with --deadband: the longest either side stays silent, in (0, 25]
+                       (default 10; at most half the server's 50 ms watchdog)
   --budget-us U        how long a tick waits for its commands (default 500)
   --miss-threshold-us U  a tick waking later than this counts as a deadline miss, a
                        state sent later than this after its deadline as a late state
@@ -74,6 +89,13 @@ double ParseInRange(std::string_view option, std::string_view text, double low, 
   if (value < low || value > high) {
     throw OptionsError(fmt::format("{} is {}; it must be in [{}, {}]", option, text, low, high));
   }
+  return value;
+}
+
+// A number in (0, high]; the message names the option, the value and the range.
+double ParsePositiveAtMost(std::string_view option, std::string_view text, double high) {
+  const double value = ParseNumber(option, text);
+  if (!(value > 0 && value <= high)) throw OptionsError(fmt::format("{} is {}; it must be in (0, {}]", option, text, high));
   return value;
 }
 
@@ -138,6 +160,10 @@ ProxyOptions ParseProxyOptions(std::span<const std::string_view> args) {
       options.version = true;
       continue;
     }
+    if (name == "--tdpa" && !inline_value) {
+      options.tdpa = true;
+      continue;
+    }
     if (!name.starts_with("--")) throw OptionsError(fmt::format("unexpected argument \"{}\"", name));
     if (!inline_value) {
       if (i + 1 >= args.size()) throw OptionsError(fmt::format("{} needs a value", name));
@@ -188,6 +214,21 @@ ProxyOptions ParseProxyOptions(std::span<const std::string_view> args) {
       } else {
         throw OptionsError(fmt::format("--remote-mode is \"{}\"; it must be direct or local-model", value));
       }
+    } else if (name == "--tdpa") {
+      throw OptionsError(fmt::format("--tdpa takes no value (\"{}\")", value));
+    } else if (name == "--deadband") {
+      options.deadband.weber = ParseNumber(name, value);
+      if (!(options.deadband.weber >= 0 && options.deadband.weber < 1)) {
+        throw OptionsError(fmt::format("--deadband is {}; a Weber fraction must be in [0, 1) (0: off)", value));
+      }
+    } else if (name == "--deadband-force-floor") {
+      options.deadband.force_floor_n = ParsePositiveAtMost(name, value, remote::kMaxForceFloorN);
+    } else if (name == "--deadband-position-floor") {
+      options.deadband.position_floor_m = ParsePositiveAtMost(name, value, remote::kMaxPositionFloorM);
+    } else if (name == "--deadband-velocity-floor") {
+      options.deadband.velocity_floor_mps = ParsePositiveAtMost(name, value, remote::kMaxVelocityFloorMps);
+    } else if (name == "--keepalive-ms") {
+      options.deadband.keepalive_s = ParsePositiveAtMost(name, value, remote::kMaxKeepaliveS * 1000) / 1000;
     } else if (name == "--max-force") {
       options.max_force = ParseInRange(name, value, 1e-3, 1e4);
     } else if (name == "--budget-us") {
@@ -223,6 +264,10 @@ ProxyOptions ParseProxyOptions(std::span<const std::string_view> args) {
   }
   if (options.local_model && (options.echo || options.mode != DeviceKind::kImpedance)) {
     throw OptionsError("--remote-mode local-model is for an impedance device served by hapticd (--server)");
+  }
+  if ((options.tdpa || options.deadband.on()) && (options.echo || options.mode != DeviceKind::kImpedance)) {
+    throw OptionsError(fmt::format("{} is for an impedance device served by hapticd (--server)",
+                                   options.tdpa ? "--tdpa" : "--deadband"));
   }
   if (options.threads > options.sessions) {
     throw OptionsError(fmt::format("--threads is {}; it must be at most --sessions ({}): a loop serves one "

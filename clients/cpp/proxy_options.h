@@ -10,6 +10,7 @@
 
 #include "clients/cpp/control_client.h"
 #include "clients/cpp/device_driver.h"
+#include "server/remote/deadband.h"
 #include "server/sim/scenario.h"
 
 namespace hapticd::proxy {
@@ -41,6 +42,8 @@ struct ProxyOptions {
   std::vector<sim::PathPoint> custom_path;  // kCustom only
   double max_force = 10;          // N
   bool local_model = false;       // --remote-mode local-model
+  bool tdpa = false;              // --tdpa: two-port passivity across the channel
+  remote::DeadbandSettings deadband;  // --deadband W and its floors, --keepalive-ms
   double budget_us = 500;         // a tick's wait for its commands
   double miss_threshold_us = 100;  // a tick waking later than this is a miss
   double hold_ms = 50;            // device watchdog

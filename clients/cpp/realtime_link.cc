@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <string>
 #include <system_error>
@@ -47,6 +48,15 @@ LinkCounters& LinkCounters::operator+=(const LinkCounters& other) {
   late += other.late;
   stale += other.stale;
   bad += other.bad;
+  predicted += other.predicted;
+  return *this;
+}
+
+ServerEnd& ServerEnd::operator+=(const ServerEnd& other) {
+  energy_in += other.energy_in;
+  energy_out += other.energy_out;
+  commands_held += other.commands_held;
+  commands_sent += other.commands_sent;
   return *this;
 }
 
@@ -147,10 +157,23 @@ void RealtimeLink::Accept(std::span<const uint8_t> datagram, bool truncated, int
   ended_flags_ |= incoming_.flags & (v1::COMMAND_FLAGS_SESSION_CLOSED | v1::COMMAND_FLAGS_SESSION_TIMED_OUT);
   if (fragment_sink_ != nullptr && incoming_.model.count != 0) fragment_sink_->Offer(incoming_.model);
   incoming_.model = {};  // its bytes are the receive buffer's, gone with the next datagram
+  // the server's end, as it reports it
+  if (std::isfinite(incoming_.energy_in)) server_end_.energy_in = std::max(server_end_.energy_in, incoming_.energy_in);
+  if (std::isfinite(incoming_.energy_out)) {
+    server_end_.energy_out = std::max(server_end_.energy_out, incoming_.energy_out);
+  }
+  server_end_.commands_held = std::max(server_end_.commands_held, incoming_.commands_held);
+  server_end_.commands_sent = std::max(server_end_.commands_sent, incoming_.command_number);
   const uint64_t sequence = incoming_.sequence;
   // an answer to a state never sent
   if (sequence > last_sequence_) {
     ++counters_.bad;
+    return;
+  }
+  // a deadband's prediction on a state already answered (or held back)
+  if (incoming_.flags & v1::COMMAND_FLAGS_PREDICTED) {
+    ++counters_.predicted;
+    TakeIfNewest();
     return;
   }
   // the server's watchdog commands (sequence 0), answers too old to place, duplicates,
@@ -161,10 +184,7 @@ void RealtimeLink::Accept(std::span<const uint8_t> datagram, bool truncated, int
     return;
   }
   replied_[slot] = true;
-  if (sequence > newest_.sequence) {
-    newest_ = incoming_;
-    fresh_ = true;
-  }
+  TakeIfNewest();
   if (wire_rtt_sink_ != nullptr && arrival_real_ns != 0) wire_rtt_sink_->Record(arrival_real_ns - send_real_ns_[slot]);
   // the last state's answer within its wait is the one the loop renders
   if (sequence == last_sequence_ && wait_ == Wait::kWaiting) {
@@ -176,6 +196,14 @@ void RealtimeLink::Accept(std::span<const uint8_t> datagram, bool truncated, int
     return;
   }
   ++counters_.late;
+}
+
+void RealtimeLink::TakeIfNewest() {
+  const bool numbered = incoming_.command_number != 0 && newest_.command_number != 0;
+  if (numbered ? incoming_.command_number > newest_.command_number : incoming_.sequence > newest_.sequence) {
+    newest_ = incoming_;
+    fresh_ = true;
+  }
 }
 
 LinkSet::LinkSet(std::span<RealtimeLink* const> links)

@@ -10,7 +10,12 @@
 //   sequence: newer than the last sent: bad (never sent); 0 (a server watchdog
 //             command), older than the last kWindow states, already answered or
 //             for a state whose send failed: stale; the last state's, within its wait: answered; any other state's
-//             first answer: late.
+//             first answer: late; flagged PREDICTED (a deadband session's server
+//             rendering a state predicted on): predicted, the newest when its
+//             command_number is.
+// Every authentic command of the session also reports the server's end of the channel
+// (its energies, the commands its deadband held, how many it has sent): the link keeps
+// the largest of each (all non-decreasing, so a late or reordered one changes nothing).
 // The round trip is taken twice: from just before the send to the loop reading the
 // command (CLOCK_MONOTONIC, what the loop experiences; answered commands only), and to
 // the kernel's arrival stamp of the datagram (SO_TIMESTAMPNS, CLOCK_REALTIME on both
@@ -51,10 +56,23 @@ struct LinkCounters {
   uint64_t late = 0;           // first commands for a state whose wait had ended
   uint64_t stale = 0;          // server watchdog commands, duplicates, answers too old to place
   uint64_t bad = 0;            // oversized, bad tag, malformed, another session, never sent
+  uint64_t predicted = 0;      // deadband: commands for a state predicted on (COMMAND_FLAGS_PREDICTED)
 
   LinkCounters& operator+=(const LinkCounters& other);
-  // States whose command never came: sent - answered - late.
+  // States whose command never came: sent - answered - late (under a deadband this
+  // includes those whose answer the server held back: ServerEnd::commands_held).
   uint64_t lost() const { return sent - answered - late; }
+};
+
+// The server's end of a session's channel as its commands report it: the largest of
+// each so far.
+struct ServerEnd {
+  double energy_in = 0;         // J: the server's port (two_port_passivity.h)
+  double energy_out = 0;
+  uint64_t commands_held = 0;   // held back by its deadband
+  uint64_t commands_sent = 0;   // the largest command_number
+
+  ServerEnd& operator+=(const ServerEnd& other);
 };
 
 // Takes the model fragments of a local-model session's commands (on the loop's thread,
@@ -106,6 +124,7 @@ class RealtimeLink {
   int64_t wire_rtt_ns() const { return wire_rtt_ns_; }
 
   const LinkCounters& counters() const { return counters_; }
+  const ServerEnd& server_end() const { return server_end_; }
 
   // The server said the session has ended: COMMAND_FLAGS_SESSION_CLOSED or
   // _TIMED_OUT from an authentic command; 0 while it lives.
@@ -129,6 +148,9 @@ class RealtimeLink {
   void Accept(std::span<const uint8_t> datagram, bool truncated, int64_t arrival_real_ns);
   // Parses a good-tagged datagram as what the peer answers with; false when malformed.
   bool Parse(std::span<const uint8_t> datagram);
+  // Takes incoming_ as the newest command when it is newer (by command_number when both
+  // have one, else by sequence).
+  void TakeIfNewest();
 
   uint32_t session_id_;
   net::TagKey key_;  // prepared once: each tag is one compression
@@ -154,6 +176,7 @@ class RealtimeLink {
   int64_t wire_rtt_ns_ = 0;
   uint32_t ended_flags_ = 0;
   LinkCounters counters_;
+  ServerEnd server_end_;
 
   std::array<uint8_t, 2048> send_buffer_;
   std::array<uint8_t, 2048> receive_buffer_;

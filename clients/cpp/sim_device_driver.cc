@@ -58,6 +58,7 @@ SimDeviceDriver::SimDeviceDriver(const DeviceCaps& caps, const sim::HandSpec& ha
       p_W_(device.start_W),
       target_W_(device.start_W) {
   caps_.start_W = device.start_W;
+  caps_.handle_mass = device.mass;
 }
 
 void SimDeviceDriver::Step(double t) {

@@ -352,6 +352,7 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const Connect
   double timeout_s = 0;
   const force::SessionSettings settings = ReadSessionRequest(open, start_W, timeout_s);
   const bool local_model = ReadLocalModelMode(open);
+  const ChannelRequest channel = ReadChannelRequest(open);
   const int index = sessions_.FindFree();
   if (index < 0) {
     throw RequestError(v1::Error::CODE_RESOURCE_EXHAUSTED,
@@ -373,6 +374,21 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const Connect
   if (local_model && !slot.models) slot.models = std::make_unique<ModelMailbox>();
   slot.sending_version = 0;
   slot.next_fragment = 0;
+  slot.fragments_sent = 0;
+  slot.tdpa = channel.tdpa;
+  slot.deadband = channel.deadband;
+  slot.renderer_end = remote::RendererEnd(channel.tdpa);
+  slot.renderer_end.Reset(start_W);
+  slot.target_W = start_W;
+  slot.predict_p_W = start_W;
+  slot.predict_v_W.setZero();
+  slot.predict_ns = 0;
+  slot.state_sequence = 0;
+  slot.state_send_ns = 0;
+  slot.f_sent_W.setZero();
+  slot.command_sent_ns = 0;
+  slot.command_sent = false;
+  slot.command_number = 0;
   slot.replay.Reset();
   slot.peer_size = 0;
   slot.opened_ns = MonotonicNowNs();
@@ -391,10 +407,11 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const Connect
   sessions_.MarkOpened(index);
   slot.state.store(SlotState::kWaiting, std::memory_order_release);
   ++sessions_opened_;
-  Log(LogLevel::kInfo, "session {} opened: {} {} avatar, {}, {} Hz, max force {} N{}", SessionName(id),
+  Log(LogLevel::kInfo, "session {} opened: {} {} avatar, {}, {} Hz, max force {} N{}{}{}", SessionName(id),
       force::DeviceModeName(settings.device.mode), force::AvatarTypeName(settings.avatar.type),
       force::ForceMethodName(settings.avatar.method), settings.device.rate_hz, settings.device.max_force,
-      local_model ? ", rendered on the device from local models" : "");
+      local_model ? ", rendered on the device from local models" : "", channel.tdpa ? ", two-port passivity" : "",
+      channel.deadband.on() ? fmt::format(", deadband {}", channel.deadband.weber) : std::string());
 
   v1::Reply reply;
   v1::SessionOpened* opened = reply.mutable_session_opened();
@@ -601,6 +618,19 @@ void ControlService::WriteSession(uint32_t id, const SessionTelemetrySample& sam
     WriteVector(sample.device_avatar_W, out->mutable_device_avatar());
     out->set_model_fragments_sent(sample.model_fragments_sent);
   }
+  out->set_server_energy_in(sample.server_energy.in);
+  out->set_server_energy_out(sample.server_energy.out);
+  out->set_device_energy_in(sample.device_energy.in);
+  out->set_device_energy_out(sample.device_energy.out);
+  out->set_channel_energy((sample.device_energy.out - sample.device_energy.in) +
+                          (sample.server_energy.out - sample.server_energy.in));
+  out->set_drift(sample.drift_m);
+  out->set_max_drift(sample.max_drift_m);
+  out->set_tdpa_activations(sample.tdpa_activations);
+  out->set_states_held(sample.states_held);
+  out->set_keepalives(sample.keepalives);
+  out->set_commands_held(sample.commands_held);
+  out->set_predicted_ticks(sample.predicted_ticks);
 }
 
 void ControlService::WriteCounters(v1::ServerCounters* out) const {

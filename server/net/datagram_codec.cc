@@ -348,6 +348,10 @@ std::size_t DatagramCodec::EncodeState(const DeviceStateSample& state, const Tag
   message->set_rtt_us(state.rtt_us);
   message->set_model_version(state.model_version);
   SetVector(message, &pb::DeviceState::mutable_avatar, state.avatar_W);
+  message->set_energy_in(state.energy_in);
+  message->set_energy_out(state.energy_out);
+  message->set_states_held(state.states_held);
+  message->set_keepalive(state.keepalive);
   const std::size_t size = SealInto(*message, nullptr, key, out, kMaxStateSize);
   impl_->arena.Reset();
   return size;
@@ -367,6 +371,10 @@ std::size_t DatagramCodec::EncodeCommand(const DeviceCommandSample& command, con
   SetVector(message, &pb::DeviceCommand::mutable_avatar, command.avatar_W);
   message->set_contact(command.contact);
   message->set_flags(command.flags);
+  message->set_energy_in(command.energy_in);
+  message->set_energy_out(command.energy_out);
+  message->set_commands_held(command.commands_held);
+  message->set_command_number(command.command_number);
   // a fragment the parser would refuse is not sent either
   const ModelFragmentView& model = command.model;
   if (model.count != 0 && !(model.count <= kMaxModelFragments && model.index < model.count &&
@@ -399,6 +407,10 @@ DatagramError DatagramCodec::ParseState(std::span<const uint8_t> datagram, Devic
     out.rtt_us = message->rtt_us();
     out.model_version = message->model_version();
     out.avatar_W = FromProto(message->avatar());
+    out.energy_in = message->energy_in();
+    out.energy_out = message->energy_out();
+    out.states_held = message->states_held();
+    out.keepalive = message->keepalive();
     result = DatagramError::kNone;
   }
   impl_->arena.Reset();
@@ -446,6 +458,10 @@ DatagramError DatagramCodec::ParseCommand(std::span<const uint8_t> datagram, Dev
     out.avatar_W = FromProto(message->avatar());
     out.contact = message->contact();
     out.flags = message->flags();
+    out.energy_in = message->energy_in();
+    out.energy_out = message->energy_out();
+    out.commands_held = message->commands_held();
+    out.command_number = message->command_number();
     result = DatagramError::kNone;
   }
   impl_->arena.Reset();

@@ -60,6 +60,10 @@ struct DeviceStateSample {
   uint32_t rtt_us = 0;
   uint64_t model_version = 0;            // local model: the newest the device holds
   Vector3 avatar_W = Vector3::Zero();    // local model: the device's own proxy
+  double energy_in = 0;                  // the device end's channel energies, J
+  double energy_out = 0;
+  uint64_t states_held = 0;              // deadband: states held back so far
+  bool keepalive = false;                // deadband: sent for the keep-alive alone
 };
 
 // One fragment of a local model's encoding (hapticd.v1.ModelFragment); count 0: none.
@@ -85,6 +89,10 @@ struct DeviceCommandSample {
   bool contact = false;
   uint32_t flags = 0;  // hapticd.v1.CommandFlags
   ModelFragmentView model;  // count 0: the command carries none
+  double energy_in = 0;     // the server end's channel energies, J
+  double energy_out = 0;
+  uint64_t commands_held = 0;   // deadband: commands held back so far
+  uint64_t command_number = 0;  // the server's count of the session's commands (0: none)
 };
 
 // A session key ready to tag with: BLAKE2b's chaining value after the key block (one

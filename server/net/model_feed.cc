@@ -53,11 +53,15 @@ void ModelFeed::Serve(SessionSlot& slot, Feed& feed, int64_t now_ns, const scene
                           std::max(static_cast<double>(kPassNs) * 1e-9, feed.longest_gap_s), settings.avatar.radius) +
       (device_W - avatar_W).norm();
   const bool scene_changed = feed.version != 0 && scene.version() != feed.scene_version;
-  const bool uncovered = (avatar_W - feed.center_W).norm() + reach > feed.radius;
+  // uncovered, and a newer ball about the avatar would cover more of it: once the reach
+  // passes what the largest ball holds, a cut about the same point is the same model
+  // (without this, at a long round trip, one per round trip while the hand rests)
+  const double radius = std::min(kRadiusSlack * reach, remote::kMaxModelRadiusM);
+  const double moved = (avatar_W - feed.center_W).norm();
+  const bool uncovered = moved + reach > feed.radius && moved + radius - feed.radius > kMinGainM;
   const bool in_flight = feed.version > feed.acked && static_cast<double>(now_ns - feed.cut_ns) * 1e-9 < kResendS;
   if (feed.version != 0 && (in_flight || !(uncovered || scene_changed))) return;
 
-  const double radius = std::min(kRadiusSlack * reach, remote::kMaxModelRadiusM);
   const remote::LocalModel model = remote::CutLocalModel(scene, avatar_W, radius, feed.version + 1, now_s);
   const std::string encoded = EncodeLocalModel(model);
   EncodedModel& out = slot.models->back();

@@ -11,7 +11,9 @@
 // the device can get before a newer one reaches it (ModelRadius: its declared maximum
 // velocity times the round trip of the models so far, plus the longest wait between
 // them), and gives the new ball room to spare (kRadiusSlack) so that a moving hand does
-// not need one every pass. While a model is on its way (not yet held) no newer one is
+// not need one every pass; it cuts again only where the new ball would reach at least
+// kMinGainM further about the avatar (past the largest ball, 1 m, a reach recuts only as
+// the avatar travels). While a model is on its way (not yet held) no newer one is
 // cut unless it is overdue (kResendS): a model of many fragments must get through
 // whole. So a scene that keeps changing (a kinematic object moving) sends one model
 // per round trip, each with the poses and velocities of its cut.
@@ -29,6 +31,7 @@ class ModelFeed {
   static constexpr int64_t kPassNs = 2'000'000;
   static constexpr double kRadiusSlack = 1.5;
   static constexpr double kResendS = 1.0;
+  static constexpr double kMinGainM = 1e-3;
   // Before a model's round trip is measured.
   static constexpr double kInitialRoundTripS = 0.2;
 

@@ -232,6 +232,32 @@ bool ReadLocalModelMode(const v1::OpenSession& open) {
   }
 }
 
+ChannelRequest ReadChannelRequest(const v1::OpenSession& open) {
+  ChannelRequest request;
+  request.tdpa = open.tdpa();
+  remote::DeadbandSettings& deadband = request.deadband;
+  deadband.weber = open.deadband();
+  // a zero floor or keep-alive asks for the default
+  const auto read = [](double value, double fallback) { return value == 0 ? fallback : value; };
+  deadband.force_floor_n = read(open.deadband_force_floor(), remote::kForceFloorN);
+  deadband.position_floor_m = read(open.deadband_position_floor(), remote::kPositionFloorM);
+  deadband.velocity_floor_mps = read(open.deadband_velocity_floor(), remote::kVelocityFloorMps);
+  deadband.keepalive_s = read(open.keepalive_s(), remote::DeadbandSettings{}.keepalive_s);
+  if (auto error = remote::ValidateDeadband(deadband)) throw BadRequest("open_session." + *error);
+  if (open.device_type() == v1::DEVICE_TYPE_ADMITTANCE) {
+    if (request.tdpa) {
+      throw BadRequest("open_session.tdpa is true for an admittance device; two-port passivity is for impedance "
+                       "devices (position up, force down)");
+    }
+    if (deadband.on()) {
+      throw BadRequest(fmt::format("open_session.deadband is {} for an admittance device; the deadband is for "
+                                   "impedance devices",
+                                   deadband.weber));
+    }
+  }
+  return request;
+}
+
 void WriteVector(const Vector3& v, v1::Vec3* out) {
   out->set_x(v.x());
   out->set_y(v.y());

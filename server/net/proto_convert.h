@@ -8,6 +8,7 @@
 #include <string>
 #include "hapticd/v1/hapticd.pb.h"
 #include "server/force/session_settings.h"
+#include "server/remote/deadband.h"
 #include "server/scene/scene_builder.h"
 
 namespace hapticd::net {
@@ -31,6 +32,16 @@ force::SessionSettings ReadSessionRequest(const v1::OpenSession& open, geometry:
 // for an unknown mode or a local model for an admittance device (its pose comes from
 // the server's avatar dynamics).
 bool ReadLocalModelMode(const v1::OpenSession& open);
+
+// What an OpenSession asks of the channel: two-port passivity and the deadband, its
+// zero fields read as the defaults (remote::DeadbandSettings), validated. RequestError
+// naming the field for a value out of its bounds (remote::ValidateDeadband), or for tdpa
+// or a deadband asked for an admittance device (impedance sessions only).
+struct ChannelRequest {
+  bool tdpa = false;
+  remote::DeadbandSettings deadband;
+};
+ChannelRequest ReadChannelRequest(const v1::OpenSession& open);
 
 void WriteVector(const geometry::Vector3& v, v1::Vec3* out);
 void WritePose(const scene::Pose& pose, v1::Pose* out);

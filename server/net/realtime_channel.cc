@@ -46,6 +46,91 @@ double StepSeconds(const SessionSlot& slot, int64_t send_ns, int64_t now_ns) {
   return NsToSeconds(std::clamp(interval_ns, slot.period_ns / 2, 2 * slot.period_ns));
 }
 
+bool Impedance(const SessionSlot& slot) {
+  return slot.render->settings().device.mode == force::DeviceMode::kImpedance;
+}
+
+int64_t KeepaliveNs(const SessionSlot& slot) { return std::llround(slot.deadband.keepalive_s * 1e9); }
+
+// The avatar input's step towards target_W, the device's newest position (predicted on
+// between a deadband's states): the whole way, or under TDPA as far as the server's port
+// lets it (remote::RendererEnd; the rest is the drift). Sets the input's position, and
+// under TDPA its velocity (the step over dt, which the environment's damping meets).
+// Admittance sessions and a non-finite target (the session counts and drops it) move no
+// input: the target goes to the session as it is.
+Vector3 StepInput(SessionSlot& slot, const scene::SceneSnapshot& scene, const Vector3& target_W, double dt) {
+  force::DeviceInput& input = slot.last_input;
+  slot.target_W = target_W;
+  if (!Impedance(slot) || !target_W.allFinite()) {
+    input.p_WD = target_W;
+    return Vector3::Zero();
+  }
+  const Vector3 step = slot.renderer_end.Step(scene, target_W, slot.render->settings().avatar.radius, dt);
+  SessionTelemetrySample& telemetry = slot.telemetry;
+  if (slot.tdpa) {
+    telemetry.tdpa_activations += slot.renderer_end.port().active() ? 1 : 0;
+    input.v_WD = step / dt;
+  }
+  input.p_WD = slot.renderer_end.input_W();
+  telemetry.drift_m = (target_W - input.p_WD).norm();
+  telemetry.max_drift_m = std::max(telemetry.max_drift_m, telemetry.drift_m);
+  return step;
+}
+
+// After the session's tick: the server's port observes what its input pushed into the
+// scene over step. An input the session refused (non-finite, absurd: counted in before's
+// successors) moved nothing, so its step is taken back.
+void ObserveTick(SessionSlot& slot, const force::TickOutput& output, Vector3 step,
+                 const force::SessionCounters& before) {
+  if (!Impedance(slot)) return;
+  const force::SessionCounters& after = slot.render->counters();
+  if (after.nonfinite_inputs != before.nonfinite_inputs || after.absurd_inputs != before.absurd_inputs) {
+    slot.renderer_end.Retract(step);
+    step.setZero();
+  }
+  slot.renderer_end.Observe(output, step);
+  slot.telemetry.server_energy = slot.renderer_end.energy();
+}
+
+// What the session computed, as telemetry shows it (the command's force, where the device
+// is, the avatar), whether or not a command goes out.
+void RecordOutput(SessionSlot& slot, const force::TickOutput& output, uint64_t scene_version) {
+  SessionTelemetrySample& telemetry = slot.telemetry;
+  telemetry.f_W = Impedance(slot) ? output.f_W : Vector3::Zero();
+  telemetry.p_WD = slot.target_W;
+  telemetry.avatar_W = output.avatar_W;
+  telemetry.contact = output.contact;
+  telemetry.touched_object = output.touched_object;
+  telemetry.scene_version = scene_version;
+}
+
+// A local-model session's device does not hold the newest model yet: a command carries
+// one of its fragments. For a prediction (a deadband's silent tick) only on the model's
+// first pass through its fragments: after that they go with the answers to states, at
+// the states' rate, rather than every tick while a model crosses a long round trip.
+bool FragmentDue(SessionSlot& slot, bool predicted) {
+  if (!slot.local_model) return false;
+  const EncodedModel& model = slot.models->Newest();
+  if (model.session_id != slot.id || model.version <= slot.telemetry.model_version) return false;
+  const std::size_t count = std::max<std::size_t>(1, (model.size + kModelChunkSize - 1) / kModelChunkSize);
+  return !predicted || model.version != slot.sending_version || slot.fragments_sent < count;
+}
+
+// Deadband sessions: whether this tick's output differs from what the device has by more
+// than a person could tell: a fragment due (local model: the device renders its own
+// force), else a force out of the last one's band.
+bool OutOfBand(SessionSlot& slot, const force::TickOutput& output, bool predicted) {
+  if (slot.local_model) return FragmentDue(slot, predicted);
+  return remote::ExceedsDeadband(output.f_W, slot.f_sent_W, slot.deadband.weber, slot.deadband.force_floor_n);
+}
+
+// Deadband sessions: whether a state's command goes out: the first, one whose last
+// command is a keep-alive old, or one out of band.
+bool CommandDue(SessionSlot& slot, const force::TickOutput& output, int64_t now_ns) {
+  return !slot.command_sent || now_ns - slot.command_sent_ns >= KeepaliveNs(slot) ||
+         OutOfBand(slot, output, false);
+}
+
 }  // namespace
 
 int64_t MonotonicNowNs() {
@@ -237,17 +322,30 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
   slot.ramp_done = false;
   slot.state.store(SlotState::kActive, std::memory_order_release);
 
+  SessionTelemetrySample& telemetry = slot.telemetry;
+  // the device's end of the channel as it reports it; the state silent ticks predict on
+  slot.renderer_end.ReceiveOtherIn(state.energy_in);
+  telemetry.device_energy = {state.energy_in, state.energy_out};
+  telemetry.states_held = state.states_held;
+  telemetry.keepalives += state.keepalive ? 1 : 0;
+  slot.predict_p_W = state.p_WD;
+  slot.predict_v_W = state.v_WD;
+  slot.predict_ns = now_ns;
+  slot.state_sequence = state.sequence;
+  slot.state_send_ns = state.send_time_ns;
+
   force::DeviceInput& input = slot.last_input;
   input.fresh = true;
-  input.p_WD = state.p_WD;
   input.v_WD = state.v_WD;
   input.f_held_W = state.f_held_W;
   input.f_sensed_W = state.f_sensed_W;
   const int64_t tick_start_ns = MonotonicNowNs();
+  const Vector3 step = StepInput(slot, scene, state.p_WD, dt);
+  const force::SessionCounters before = slot.render->counters();
   const force::TickOutput output = slot.render->Tick(scene, input, dt);
+  ObserveTick(slot, output, step, before);
   const double tick_us = static_cast<double>(MonotonicNowNs() - tick_start_ns) * 1e-3;
 
-  SessionTelemetrySample& telemetry = slot.telemetry;
   telemetry.rtt_us = state.rtt_us;
   telemetry.last_sequence = state.sequence;
   ++telemetry.states_received;
@@ -256,8 +354,15 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
     telemetry.model_version = state.model_version;
     telemetry.device_avatar_W = state.avatar_W;
   }
-  const bool queued = QueueCommand(slot, output, state.sequence, state.send_time_ns, scene.version(),
-                                   output.overrun ? v1::COMMAND_FLAGS_OVERRUN : v1::COMMAND_FLAGS_NONE, reply);
+  // the answer, unless a deadband holds it back
+  const uint32_t flags = output.overrun ? v1::COMMAND_FLAGS_OVERRUN : v1::COMMAND_FLAGS_NONE;
+  bool queued = false;
+  if (!slot.deadband.on() || flags != v1::COMMAND_FLAGS_NONE || state.keepalive || CommandDue(slot, output, now_ns)) {
+    queued = QueueCommand(slot, output, state.sequence, state.send_time_ns, scene.version(), flags, reply, now_ns);
+  } else {
+    ++telemetry.commands_held;
+    RecordOutput(slot, output, scene.version());
+  }
   PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
   return queued;
 }
@@ -306,10 +411,24 @@ bool RealtimeChannel::HousekeepSession(SessionSlot& slot, SlotState state, int64
   }
   if (state == SlotState::kWaiting || now_ns < slot.next_silent_tick_ns) return false;
 
-  // A state is late: tick on the last one, so the watchdog counts the silence.
+  // A state is late: tick on the last one, so the watchdog counts the silence. A
+  // deadband session within its keep-alive (and a period) renders the last state
+  // predicted on at its velocity instead: the device sends none while that holds.
   slot.next_silent_tick_ns += slot.period_ns;
-  slot.last_input.fresh = false;
-  const force::TickOutput output = slot.render->Tick(scene, slot.last_input, NsToSeconds(slot.period_ns));
+  const double dt = NsToSeconds(slot.period_ns);
+  force::DeviceInput& input = slot.last_input;
+  const bool predicted =
+      slot.deadband.on() && Impedance(slot) && now_ns - slot.predict_ns <= KeepaliveNs(slot) + slot.period_ns;
+  input.fresh = predicted;
+  Vector3 step = Vector3::Zero();
+  if (predicted) {
+    input.v_WD = slot.predict_v_W;
+    step = StepInput(slot, scene, slot.predict_p_W + slot.predict_v_W * NsToSeconds(now_ns - slot.predict_ns), dt);
+    ++slot.telemetry.predicted_ticks;
+  }
+  const force::SessionCounters before = slot.render->counters();
+  const force::TickOutput output = slot.render->Tick(scene, input, dt);
+  ObserveTick(slot, output, step, before);
   const auto& control = slot.render->settings().control;
   const bool watchdog_tripped = NsToSeconds(now_ns - slot.last_state_ns) >= control.watchdog_timeout_s;
   if (watchdog_tripped && state == SlotState::kActive) {
@@ -319,16 +438,26 @@ bool RealtimeChannel::HousekeepSession(SessionSlot& slot, SlotState state, int64
   // tell a device whose last command was already zero).
   bool queued = false;
   if (watchdog_tripped && !slot.ramp_done) {
-    const bool nothing_to_ramp = output.f_W.isZero(0) && slot.telemetry.f_W.isZero(0);
-    queued = !nothing_to_ramp && QueueCommand(slot, output, 0, 0, scene.version(), v1::COMMAND_FLAGS_WATCHDOG, reply);
+    const bool nothing_to_ramp = output.f_W.isZero(0) && slot.f_sent_W.isZero(0);
+    queued = !nothing_to_ramp &&
+             QueueCommand(slot, output, 0, 0, scene.version(), v1::COMMAND_FLAGS_WATCHDOG, reply, now_ns);
     slot.ramp_done = output.f_W.isZero(0);
+  } else if (predicted) {
+    // a prediction the device must hear of: for the state it was made from
+    if (OutOfBand(slot, output, true)) {
+      queued = QueueCommand(slot, output, slot.state_sequence, slot.state_send_ns, scene.version(),
+                            v1::COMMAND_FLAGS_PREDICTED, reply, now_ns);
+    } else {
+      RecordOutput(slot, output, scene.version());
+    }
   }
   PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
   return queued;
 }
 
 bool RealtimeChannel::QueueCommand(SessionSlot& slot, const force::TickOutput& output, uint64_t sequence,
-                                   uint64_t echo_ns, uint64_t scene_version, uint32_t flags, int reply) {
+                                   uint64_t echo_ns, uint64_t scene_version, uint32_t flags, int reply,
+                                   int64_t now_ns) {
   DeviceCommandSample command;
   command.session_id = slot.id;
   command.sequence = sequence;
@@ -340,6 +469,10 @@ bool RealtimeChannel::QueueCommand(SessionSlot& slot, const force::TickOutput& o
   command.avatar_W = output.avatar_W;
   command.contact = output.contact;
   command.flags = flags;
+  command.energy_in = slot.renderer_end.energy().in;
+  command.energy_out = slot.renderer_end.energy().out;
+  command.commands_held = slot.telemetry.commands_held;
+  command.command_number = slot.command_number + 1;
   SessionTelemetrySample& telemetry = slot.telemetry;
   // a local model the device does not hold yet: its fragments in turn
   if (slot.local_model) {
@@ -348,23 +481,23 @@ bool RealtimeChannel::QueueCommand(SessionSlot& slot, const force::TickOutput& o
       if (model.version != slot.sending_version) {
         slot.sending_version = model.version;
         slot.next_fragment = 0;
+        slot.fragments_sent = 0;
       }
       command.model = Fragment(std::span<const uint8_t>(model.bytes.data(), model.size), model.version,
                                slot.next_fragment);
       slot.next_fragment = (slot.next_fragment + 1) % command.model.count;
+      ++slot.fragments_sent;
       ++telemetry.model_fragments_sent;
     }
   }
 
-  telemetry.f_W = command.f_W;
-  telemetry.p_WD = slot.last_input.p_WD;
-  telemetry.avatar_W = output.avatar_W;
-  telemetry.contact = output.contact;
-  telemetry.touched_object = output.touched_object;
-  telemetry.scene_version = scene_version;
-
+  RecordOutput(slot, output, scene_version);
   if (!QueueDatagram(command, slot.PreparedKey(), slot.peer, slot.peer_size, reply)) return false;
   ++telemetry.commands_sent;
+  ++slot.command_number;
+  slot.f_sent_W = command.f_W;
+  slot.command_sent_ns = now_ns;
+  slot.command_sent = true;
   return true;
 }
 

@@ -12,13 +12,20 @@
 //      joins the reply batch;
 //   3. sends the replies in one sendmmsg;
 //   4. housekeeping: ticks sessions whose states stopped, once a period: the watchdog
-//      ramps their force down (sent to the last address, flagged); a session silent for
+//      ramps their force down (sent to the last address, flagged); a deadband session
+//      within its keep-alive renders its last state predicted on instead (flagged
+//      PREDICTED when its command leaves the band); a session silent for
 //      its timeout is handed back to the control thread as kTimedOut, a closed one as
 //      kClosed. The pass runs when the first session is due (its next silent tick, 1.5
 //      periods after its last state, or its timeout), at most once a millisecond by the
 //      clock and at least every 2 ms; one due within 0.75 ms runs at once after a
 //      batch of datagrams. Sessions that stream in time are never due, so their
 //      datagrams are the thread's only wake-ups.
+// The channel's two ports (remote/channel_ends.h): an impedance session's avatar input
+// steps towards the device's newest position through the server's RendererEnd (under
+// TDPA as far as its port lets it), whose energies go down with the commands; the
+// device's come up with the states. A deadband session's commands go out only as
+// hapticd.v1.OpenSession.deadband says; the rest are counted as held.
 // Each session's key is prepared for tagging once (TagKey: the BLAKE2b state after the
 // key's block), on its first datagram.
 // A session that ended (closed or timed out) is remembered, id and key, among the last
@@ -92,7 +99,7 @@ class RealtimeChannel {
   static int64_t NextDueNs(const SessionSlot& slot, SlotState state);
   // Encodes command into the reply batch at reply for slot's peer; false if it did not fit.
   bool QueueCommand(SessionSlot& slot, const force::TickOutput& output, uint64_t sequence,
-                    uint64_t echo_ns, uint64_t scene_version, uint32_t flags, int reply);
+                    uint64_t echo_ns, uint64_t scene_version, uint32_t flags, int reply, int64_t now_ns);
   // Encodes command, tagged with key, into the reply batch at reply for peer.
   bool QueueDatagram(const DeviceCommandSample& command, const TagKey& key, const sockaddr_storage& peer,
                      socklen_t peer_size, int reply);

@@ -26,6 +26,8 @@
 #include "server/net/datagram_codec.h"
 #include "server/net/model_mailbox.h"
 #include "server/net/replay_window.h"
+#include "server/remote/channel_ends.h"
+#include "server/remote/deadband.h"
 
 namespace hapticd::net {
 
@@ -54,6 +56,17 @@ struct SessionTelemetrySample {
   uint64_t model_version = 0;
   Vector3 device_avatar_W = Vector3::Zero();
   uint64_t model_fragments_sent = 0;
+  // The channel's two ports (impedance sessions; the device's as its newest state said).
+  remote::PortEnergy server_energy;
+  remote::PortEnergy device_energy;
+  double drift_m = 0;      // TDPA: the avatar input behind the device's newest position
+  double max_drift_m = 0;
+  uint64_t tdpa_activations = 0;
+  // Deadband sessions.
+  uint64_t states_held = 0;  // as the device reported
+  uint64_t keepalives = 0;
+  uint64_t commands_held = 0;
+  uint64_t predicted_ticks = 0;
 };
 
 // A single-writer sequence lock around a trivially copyable value: the writer never
@@ -100,6 +113,9 @@ struct SessionSlot {
   // thread cuts into `models`: made for the first such session the slot holds and kept.
   bool local_model = false;
   std::unique_ptr<ModelMailbox> models;
+  // The channel: two-port passivity and the deadband (OpenSession.tdpa, .deadband...).
+  bool tdpa = false;
+  remote::DeadbandSettings deadband;
   // ----
   ReplayWindow replay;
   sockaddr_storage peer{};
@@ -112,6 +128,22 @@ struct SessionSlot {
   bool ramp_done = false;  // the watchdog's force reached zero; stop sending
   uint64_t sending_version = 0;  // the model whose fragments go out in turn
   uint32_t next_fragment = 0;
+  uint32_t fragments_sent = 0;  // of sending_version, so far
+  // The server's end of the channel (impedance sessions), and the device's newest
+  // position it steps the avatar input towards.
+  remote::RendererEnd renderer_end{false};
+  Vector3 target_W = Vector3::Zero();
+  // Deadband: the last state, which silent ticks predict on (position and velocity as it
+  // came, when, its sequence and send stamp), and the last command sent.
+  Vector3 predict_p_W = Vector3::Zero();
+  Vector3 predict_v_W = Vector3::Zero();
+  int64_t predict_ns = 0;
+  uint64_t state_sequence = 0;
+  uint64_t state_send_ns = 0;
+  Vector3 f_sent_W = Vector3::Zero();
+  int64_t command_sent_ns = 0;
+  bool command_sent = false;  // any yet
+  uint64_t command_number = 0;  // commands queued so far
   SessionTelemetrySample telemetry;  // the realtime thread's working copy
   SeqLocked<SessionTelemetrySample> published;
 

@@ -82,6 +82,8 @@ class ChannelPort {
   double available() const { return other_in_ - energy_.out; }
   // The last Limit call changed its input.
   bool active() const { return active_; }
+  // Whether the damper acts (the constructor's control).
+  bool control() const { return control_; }
 
  private:
   bool control_;

@@ -10,7 +10,7 @@
 #include "server/sim/channel.h"
 #include "server/sim/sim_device.h"
 #include "server/remote/deadband.h"
-#include "server/remote/two_port_passivity.h"
+#include "server/remote/channel_ends.h"
 
 namespace hapticd::sim {
 namespace {
@@ -110,8 +110,10 @@ SimSummary Simulator::Run(const TraceSink& trace) {
   input.p_WD = scenario_.device.start_W;
 
   // the two ends of the channel (remote/two_port_passivity.h)
-  remote::ChannelPort device_port(remote.tdpa, scenario_.device.mass);
-  remote::ChannelPort renderer_port(remote.tdpa);
+  remote::DeviceEnd device_end(remote.tdpa, scenario_.device.mass);
+  device_end.Reset(scenario_.device.start_W);
+  remote::RendererEnd renderer_end(remote.tdpa);
+  renderer_end.Reset(scenario_.device.start_W);
   remote::StateDeadband state_deadband(weber);
   std::optional<remote::LocalRenderer> local_renderer;
   if (local) {
@@ -131,8 +133,6 @@ SimSummary Simulator::Run(const TraceSink& trace) {
   };
 
   // device end
-  Vector3 q_last_W = scenario_.device.start_W;  // the last sensed position
-  Vector3 v_last_W = Vector3::Zero();           // and velocity
   DeviceCommand held;                           // the newest command (direct)
   bool has_command = false;
   // renderer end
@@ -140,10 +140,6 @@ SimSummary Simulator::Run(const TraceSink& trace) {
   Vector3 received_v_W = Vector3::Zero();
   int64_t received_tick = 0;
   Vector3 device_avatar_W = scenario_.device.start_W;  // local_model: the device's proxy, as it last said
-  Vector3 rendered_p_W = scenario_.device.start_W;  // the session's last input: behind received_W under tdpa
-  Vector3 f_env_W = Vector3::Zero();                // the session's last force
-  int touched = -1;                                 // and the object it touched
-  Vector3 avatar_last_W = scenario_.device.start_W; // and its avatar (proxy)
   Vector3 last_pose_W = scenario_.device.start_W;   // admittance: the last pose commanded
   DeviceCommand sent;                               // the last command sent (deadband)
   bool sent_any = false;
@@ -168,17 +164,15 @@ SimSummary Simulator::Run(const TraceSink& trace) {
 
   // The device's port observes the last tick's work at each sample.
   auto observe_device = [&](const DeviceState& state) {
-    const Vector3 moved = state.p_W - q_last_W;
-    device_port.Observe(admittance ? -state.f_sensed_W.dot(moved) : state.f_held_W.dot(moved));
+    device_end.Sample(state.p_W, state.v_W, admittance ? Vector3(-state.f_sensed_W) : state.f_held_W);
   };
   // The device holds a force (impedance) or follows a pose, through its port.
-  auto render = [&](const DeviceCommand& command, const DeviceState& state) {
+  auto render = [&](const DeviceCommand& command) {
     if (admittance || !remote.tdpa) return device.Accept(command);
     // the port limits what the device can render: the force saturated first
     DeviceCommand limited = command;
-    const Vector3 v_mid = state.v_W + 0.5 * (state.v_W - v_last_W);
-    limited.f_W = device_port.LimitForce(device.Saturate(command.f_W), v_mid, dt);
-    summary.tdpa_device_activations += device_port.active() ? 1 : 0;
+    limited.f_W = device_end.Limit(device.Saturate(command.f_W), dt);
+    summary.tdpa_device_activations += device_end.port().active() ? 1 : 0;
     device.Accept(limited);
   };
 
@@ -191,7 +185,7 @@ SimSummary Simulator::Run(const TraceSink& trace) {
     force::TickOutput local_output;
     if (local) {
       if (const std::optional<DeviceCommand> command = down.Receive(k)) {
-        device_port.ReceiveOtherIn(command->energy_in);
+        device_end.ReceiveOtherIn(command->energy_in);
         if (command->model && local_renderer->Accept(*command->model, t)) ++summary.models_taken;
       } else {
         ++summary.ticks_without_command;
@@ -199,13 +193,13 @@ SimSummary Simulator::Run(const TraceSink& trace) {
       force::DeviceInput own{true, state.p_W, state.v_W, state.f_held_W, state.f_sensed_W};
       local_output = local_renderer->Tick(own, dt);
       if (!local_renderer->Covers(local_output.avatar_W)) ++summary.ticks_outside_model;
-      render(DeviceCommand{local_output.f_W, local_output.p_command_W, 0, nullptr}, state);
+      render(DeviceCommand{local_output.f_W, local_output.p_command_W, 0, nullptr});
       state.avatar_W = local_output.avatar_W;
       state.model_version = local_renderer->model_version();
     }
 
     // device: send up (the deadband may hold it back)
-    state.energy_in = device_port.energy().in;
+    state.energy_in = device_end.energy().in;
     if (state_deadband.Offer(t, state.p_W, state.v_W)) up.Send(k, state);
 
     // renderer: the newest state that has arrived, else the last one (predicted on
@@ -220,7 +214,7 @@ SimSummary Simulator::Run(const TraceSink& trace) {
       input.v_WD = arrived->v_W;
       input.f_held_W = arrived->f_held_W;
       input.f_sensed_W = arrived->f_sensed_W;
-      renderer_port.ReceiveOtherIn(arrived->energy_in);
+      renderer_end.ReceiveOtherIn(arrived->energy_in);
       // a model's round trip: from its sending to the first state that renders it
       if (arrived->model_version > acked_version && arrived->model_version < model_tick.size()) {
         acked_version = arrived->model_version;
@@ -233,54 +227,26 @@ SimSummary Simulator::Run(const TraceSink& trace) {
     }
     const Vector3 target_W =
         weber > 0 ? Vector3(received_W + received_v_W * (static_cast<double>(k - received_tick) * dt)) : received_W;
-    Vector3 step = target_W - rendered_p_W;
+    // the avatar input steps towards it (through the renderer's port under tdpa)
+    const Vector3 step = renderer_end.Step(*snapshot_, target_W, radius, dt);
     if (remote.tdpa) {
-      remote::EnvironmentNear near;
-      near.f_W = f_env_W;
-      // touching: the object the avatar touched last tick, moving at the proxy; else the
-      // surface nearest the avatar input, which the step may reach
-      int object = touched;
-      Vector3 at_W = avatar_last_W;
-      if (object < 0 || f_env_W.isZero()) {
-        const double reach = step.norm() + 1e-3;
-        const query::SceneContact contact = query::FindDeepestContact(*snapshot_, rendered_p_W, radius, reach);
-        object = contact.object;
-        at_W = contact.point_W;
-        near.normal_W = contact.normal_W;
-        near.gap = std::max(-contact.depth, 0.0);
-      } else {
-        near.normal_W = f_env_W.normalized();
-      }
-      if (object >= 0) {
-        const scene::SceneObject& surface = snapshot_->object(object);
-        near.stiffness = surface.material.stiffness;
-        near.damping = surface.material.damping;
-        // a kinematic surface coming towards the avatar
-        near.approach = std::max(surface.CalcPointVelocity(at_W).dot(near.normal_W), 0.0) * dt;
-      }
-      step = renderer_port.LimitStep(step, near, dt);
-      summary.tdpa_renderer_activations += renderer_port.active() ? 1 : 0;
+      summary.tdpa_renderer_activations += renderer_end.port().active() ? 1 : 0;
       input.v_WD = step / dt;  // the avatar input's own motion, which its damping meets
-      rendered_p_W += step;
-    } else {
-      rendered_p_W = target_W;
     }
-    summary.max_drift_m = std::max(summary.max_drift_m, (target_W - rendered_p_W).norm());
-    input.p_WD = rendered_p_W;
+    summary.max_drift_m = std::max(summary.max_drift_m, (target_W - renderer_end.input_W()).norm());
+    input.p_WD = renderer_end.input_W();
     const force::TickOutput output = session_.Tick(*snapshot_, input, dt);
     // the renderer's port: what its input pushed into the environment
     if (admittance) {
-      renderer_port.Observe(output.f_W.dot(output.p_command_W - last_pose_W));
+      renderer_end.port().Observe(output.f_W.dot(output.p_command_W - last_pose_W));
+      renderer_end.Remember(output);
       last_pose_W = output.p_command_W;
     } else {
-      renderer_port.Observe(-output.f_W.dot(step));
+      renderer_end.Observe(output, step);
     }
-    f_env_W = output.f_W;
-    touched = output.touched_object;
-    avatar_last_W = output.avatar_W;
 
     // renderer: send down
-    DeviceCommand command{output.f_W, output.p_command_W, renderer_port.energy().in, nullptr};
+    DeviceCommand command{output.f_W, output.p_command_W, renderer_end.energy().in, nullptr};
     if (local) {
       // about the device's proxy (where the features it touches are), out to the device
       // point's reach
@@ -306,17 +272,15 @@ SimSummary Simulator::Run(const TraceSink& trace) {
       }
       // device: the newest command that has arrived
       if (const std::optional<DeviceCommand> arrived = down.Receive(k)) {
-        device_port.ReceiveOtherIn(arrived->energy_in);
+        device_end.ReceiveOtherIn(arrived->energy_in);
         held = *arrived;
         has_command = true;
-        render(held, state);
+        render(held);
       } else {
         ++summary.ticks_without_command;
-        if (has_command && remote.tdpa && !admittance) render(held, state);
+        if (has_command && remote.tdpa && !admittance) render(held);
       }
     }
-    q_last_W = state.p_W;
-    v_last_W = state.v_W;
 
     // measures and trace at the sample x_k
     const force::TickOutput& shown = local ? local_output : output;
@@ -346,8 +310,8 @@ SimSummary Simulator::Run(const TraceSink& trace) {
   summary.packets_lost_down = down.lost();
   summary.packets_up = up.sent();
   summary.packets_down = down.sent();
-  const remote::PortEnergy& d = device_port.energy();
-  const remote::PortEnergy& r = renderer_port.energy();
+  const remote::PortEnergy& d = device_end.energy();
+  const remote::PortEnergy& r = renderer_end.energy();
   summary.channel_energy_j = (d.out - d.in) + (r.out - r.in);
   if (local) summary.model_blends = static_cast<uint64_t>(local_renderer->blends());
   return summary;

@@ -267,6 +267,84 @@ TEST(ProxyLoop, ReportsTheWorkTheHeldForceDidAndTheLowestPoint) {
   EXPECT_NEAR(report.energy_j, want, 1e-12);
   EXPECT_LT(report.energy_j, 0);  // the upward force resisted the sinking handle
   EXPECT_EQ(report.lowest_z_m, read.back().z());
+  // the device's end of the channel observed the same work: all of it let in
+  EXPECT_NEAR(report.device_energy.in, -report.energy_j, 1e-12);
+  EXPECT_EQ(report.device_energy.out, 0);
+  EXPECT_NEAR(report.channel_energy_j(), report.energy_j, 1e-12);
+}
+
+// Under two-port passivity the device lets out no more energy than the server reports
+// it let in: a held handle is not pushed at all while the server's commands report
+// none (a jump of force would move it), and is once they report some.
+TEST(ProxyLoop, UnderTdpaTheForceWaitsForTheServersEnergy) {
+  std::atomic<bool> energy_given{false};
+  std::atomic<int> energies_reported{0};
+  Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
+    thread_local net::DatagramCodec codec;
+    net::DeviceStateSample state;
+    if (!net::CheckTag(in, TestKey()) || codec.ParseState(in, state) != net::DatagramError::kNone) return 0;
+    energies_reported += state.energy_in == 0 && state.energy_out == 0 ? 1 : 0;  // a held handle does no work
+    net::DeviceCommandSample command;
+    command.session_id = kSession;
+    command.sequence = state.sequence;
+    command.echo_send_time_ns = state.send_time_ns;
+    command.f_W = Vector3(0, 0, 3);
+    command.energy_in = energy_given ? 1.0 : 0.0;
+    return codec.EncodeCommand(command, TestKey(), out);
+  });
+  HeldDeviceDriver device(HeldCaps());
+  RealtimeLink link(kSession, TestKey(), server.endpoint());
+  ProxyChannel channel{&device, &link};
+  channel.tdpa = true;
+  {
+    ProxyLoop loop(ShortRun(0.03), {channel});
+    const ProxyReport report = loop.Run();
+    EXPECT_EQ(report.max_force_n, 0);
+    EXPECT_GT(report.tdpa_activations, 0u);
+    EXPECT_EQ(device.last_output().f_W, Vector3::Zero());
+  }
+  energy_given = true;
+  ProxyLoop loop(ShortRun(0.03), {channel});
+  const ProxyReport report = loop.Run();
+  EXPECT_EQ(device.last_output().f_W, Vector3(0, 0, 3));
+  EXPECT_EQ(report.server_end.energy_in, 1.0);
+  EXPECT_EQ(static_cast<uint64_t>(energies_reported.load()), link.counters().sent);
+}
+
+// A deadband on a handle at rest: the first state and then a keep-alive every 10 ms go
+// up, the rest are held back and counted; the states carry the count.
+TEST(ProxyLoop, TheDeadbandSendsAHandleAtRestOnlyAsKeepalives) {
+  std::atomic<uint64_t> keepalives{0}, last_held{0};
+  Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
+    thread_local net::DatagramCodec codec;
+    net::DeviceStateSample state;
+    if (!net::CheckTag(in, TestKey()) || codec.ParseState(in, state) != net::DatagramError::kNone) return 0;
+    keepalives += state.keepalive ? 1 : 0;
+    last_held = state.states_held;
+    net::DeviceCommandSample command;
+    command.session_id = kSession;
+    command.sequence = state.sequence;
+    command.echo_send_time_ns = state.send_time_ns;
+    command.commands_held = 5 * state.sequence;
+    command.command_number = state.sequence;
+    return codec.EncodeCommand(command, TestKey(), out);
+  });
+  HeldDeviceDriver device(HeldCaps());
+  RealtimeLink link(kSession, TestKey(), server.endpoint());
+  ProxyChannel channel{&device, &link};
+  channel.deadband.weber = 0.1;
+  channel.deadband.keepalive_s = 0.01;
+  ProxyLoop loop(ShortRun(0.2), {channel});
+  const ProxyReport report = loop.Run();
+  const uint64_t sent = report.packets.sent;
+  EXPECT_EQ(sent + report.states_held, static_cast<uint64_t>(report.ticks));
+  EXPECT_EQ(report.keepalives, sent - 1);
+  EXPECT_EQ(keepalives.load(), report.keepalives);
+  // one state per 10 ms of the loop's clock (ticks skipped after a stall included)
+  EXPECT_LE(sent, static_cast<uint64_t>(report.ticks + report.skipped_ticks) / 10 + 1);
+  EXPECT_GE(report.states_held, 9 * (sent - 1));
+  EXPECT_LE(last_held.load(), report.states_held);
+  EXPECT_EQ(report.server_end.commands_held, 5 * report.server_end.commands_sent);
 }
 
 // A peer that never answers: every state is lost, and the device watchdog trips once

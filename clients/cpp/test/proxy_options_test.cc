@@ -81,6 +81,35 @@ TEST(ProxyOptions, ChoosesWhereTheForceIsRendered) {
   EXPECT_EQ(ErrorOf({"--server", "a:1", "--mode", "admittance", "--remote-mode", "local-model"}), refused);
 }
 
+TEST(ProxyOptions, ReadsTheChannelsPassivityAndDeadband) {
+  const ProxyOptions plain = Parse({"--server", "a:1"});
+  EXPECT_FALSE(plain.tdpa);
+  EXPECT_FALSE(plain.deadband.on());
+  const ProxyOptions options =
+      Parse({"--server", "a:1", "--tdpa", "--deadband", "0.1", "--deadband-force-floor", "0.05",
+             "--deadband-position-floor=0.0002", "--deadband-velocity-floor", "0.004", "--keepalive-ms", "20"});
+  EXPECT_TRUE(options.tdpa);
+  EXPECT_EQ(options.deadband.weber, 0.1);
+  EXPECT_EQ(options.deadband.force_floor_n, 0.05);
+  EXPECT_EQ(options.deadband.position_floor_m, 0.0002);
+  EXPECT_EQ(options.deadband.velocity_floor_mps, 0.004);
+  EXPECT_EQ(options.deadband.keepalive_s, 0.02);
+  // the defaults: the server's (remote::DeadbandSettings)
+  const ProxyOptions defaults = Parse({"--server", "a:1", "--deadband", "0.2"});
+  EXPECT_EQ(defaults.deadband.force_floor_n, remote::kForceFloorN);
+  EXPECT_EQ(defaults.deadband.keepalive_s, 0.01);
+  // out of bounds, or where it cannot apply
+  EXPECT_EQ(ErrorOf({"--server", "a:1", "--deadband", "1"}), "--deadband is 1; a Weber fraction must be in [0, 1) (0: off)");
+  EXPECT_EQ(ErrorOf({"--server", "a:1", "--deadband-force-floor", "0"}), "--deadband-force-floor is 0; it must be in (0, 10]");
+  EXPECT_EQ(ErrorOf({"--server", "a:1", "--deadband-position-floor", "1"}),
+            "--deadband-position-floor is 1; it must be in (0, 0.01]");
+  EXPECT_EQ(ErrorOf({"--server", "a:1", "--keepalive-ms", "50"}), "--keepalive-ms is 50; it must be in (0, 25]");
+  EXPECT_EQ(ErrorOf({"--server", "a:1", "--tdpa=yes"}), "--tdpa takes no value (\"yes\")");
+  EXPECT_EQ(ErrorOf({"--echo", "a:1", "--tdpa"}), "--tdpa is for an impedance device served by hapticd (--server)");
+  EXPECT_EQ(ErrorOf({"--server", "a:1", "--mode", "admittance", "--deadband", "0.1"}),
+            "--deadband is for an impedance device served by hapticd (--server)");
+}
+
 TEST(ProxyOptions, HelpNeedsNothingElse) { EXPECT_TRUE(Parse({"--help"}).help); }
 
 TEST(ProxyOptions, BadValuesAreNamed) {

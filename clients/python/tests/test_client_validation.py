@@ -191,6 +191,26 @@ CASES = [
         lambda c: c.open_session(start=(0, 0, math.inf)),
         r"start is \[0.0, 0.0, inf\]; it must be finite",
     ),
+    (lambda c: c.open_session(deadband=1), r"^deadband is 1.0; it must be in \[0, 1\)$"),
+    (lambda c: c.open_session(deadband=-0.1), r"^deadband is -0.1; it must be in \[0, 1\)$"),
+    (
+        lambda c: c.open_session(deadband=0.1, keepalive_s=0.05),
+        r"^keepalive_s is 0.05; it must be in \(0, 0.025\] s, or 0 for the server's 0.01 s$",
+    ),
+    (
+        lambda c: c.open_session(deadband=0.1, deadband_position_floor=1),
+        r"deadband_position_floor is 1.0; it must be in \(0, 0.01\] m",
+    ),
+    (lambda c: c.open_session(tdpa=1), r"^tdpa is 1; it must be True or False$"),
+    (
+        lambda c: c.open_session("admittance", tdpa=True),
+        r"^tdpa is set for an admittance device; two-port passivity and the deadband are for "
+        r"impedance",
+    ),
+    (
+        lambda c: c.open_session("admittance", deadband=0.1),
+        r"^deadband is set for an admittance device",
+    ),
     (lambda c: c.subscribe(0), r"rate_hz is 0.0; it must be in \[0.1, 1000\] Hz"),
     (lambda c: c.subscribe(2000), r"rate_hz is 2000.0; it must be in \[0.1, 1000\] Hz"),
     (lambda c: c.scene(timeout_s=-1), r"timeout_s is -1.0; it must be a finite number > 0"),

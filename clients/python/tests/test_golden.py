@@ -114,3 +114,41 @@ def test_the_clients_handshake_matches_the_golden_open_session(fake_server):
     )
     sent = server.requests[0].open_session
     assert sent == from_text(vector).open_session
+
+
+def test_the_clients_handshake_matches_the_golden_open_session_channel(fake_server):
+    vector = BY_NAME.get("open_session_channel")
+    if vector is None:
+        pytest.skip("no open_session_channel vector")
+
+    def opened(request):
+        if request.HasField("close_session"):
+            return [pb.Reply(request_id=request.request_id, done=pb.Done())]
+        body = pb.SessionOpened(session_id=1, session_key=bytes(32), udp_endpoint="127.0.0.1:9")
+        return [pb.Reply(request_id=request.request_id, session_opened=body)]
+
+    client, server = fake_server(opened)
+    client.open_session(
+        max_force=10,
+        max_velocity=2,
+        start=(0, 0, 0.12),
+        tdpa=True,
+        deadband=0.1,
+        deadband_force_floor=0.05,
+        deadband_position_floor=0.0002,
+        deadband_velocity_floor=0.004,
+        keepalive_s=0.02,
+    )
+    assert server.requests[0].open_session == from_text(vector).open_session
+
+
+def test_the_channel_telemetry_reads_back():
+    vector = BY_NAME["telemetry_channel"]
+    reply = pb.Reply.FromString(bytes.fromhex(vector["hex"]))
+    session = codec.telemetry_from(reply.telemetry).sessions[0]
+    assert session.channel_energy == -0.01125
+    assert (session.server_energy_in, session.server_energy_out) == (0.005, 0.0025)
+    assert (session.device_energy_in, session.device_energy_out) == (0.0125, 0.00375)
+    assert (session.drift, session.max_drift, session.tdpa_activations) == (0.0004, 0.0095, 812)
+    assert (session.states_held, session.keepalives) == (918, 90)
+    assert (session.commands_held, session.predicted_ticks) == (907, 36)

@@ -25,6 +25,18 @@ def server_constant(header: str, name: str) -> float:
 
 
 @pytest.mark.skipif(not SERVER.is_dir(), reason="the server's sources are not beside the package")
+def test_the_deadbands_bounds_are_the_servers():
+    deadband = "remote/deadband.h"
+    ranges = check.RANGES
+    assert ranges["deadband"].high == 1 and ranges["deadband"].high_open
+    assert ranges["deadband_force_floor"].high == server_constant(deadband, "kMaxForceFloorN")
+    assert ranges["deadband_position_floor"].high == server_constant(deadband, "kMaxPositionFloorM")
+    velocity = server_constant(deadband, "kMaxVelocityFloorMps")
+    assert ranges["deadband_velocity_floor"].high == velocity
+    assert ranges["keepalive_s"].high == server_constant(deadband, "kMaxKeepaliveS")
+
+
+@pytest.mark.skipif(not SERVER.is_dir(), reason="the server's sources are not beside the package")
 def test_the_table_is_the_servers():
     session = "force/session_settings.h"
     scene = "scene/scene_limits.h"

@@ -363,6 +363,39 @@ TEST(ControlService, OpenSessionChecksTheHandshake) {
   EXPECT_EQ(short_timeout.error().message().rfind("open_session.timeout_s is 0.01; it must be in [0.15", 0), 0u)
       << short_timeout.error().message();
   open->set_timeout_s(0);
+  // the channel: two-port passivity and the deadband, within their documented bounds
+  // (server/remote/deadband.h), and for impedance devices only
+  open->set_deadband(1);
+  ExpectError(harness.Call(request), v1::Error::CODE_BAD_REQUEST,
+              "open_session.deadband is 1; a Weber fraction must be in [0, 1) (0: off)");
+  open->set_deadband(0.1);
+  open->set_deadband_force_floor(-0.5);
+  ExpectError(harness.Call(request), v1::Error::CODE_BAD_REQUEST,
+              "open_session.deadband_force_floor is -0.5; it must be in (0, 10]");
+  open->set_deadband_force_floor(0);
+  open->set_deadband_position_floor(0.5);
+  ExpectError(harness.Call(request), v1::Error::CODE_BAD_REQUEST,
+              "open_session.deadband_position_floor is 0.5; it must be in (0, 0.01]");
+  open->set_deadband_position_floor(0);
+  open->set_deadband_velocity_floor(NAN);
+  ExpectError(harness.Call(request), v1::Error::CODE_BAD_REQUEST,
+              "open_session.deadband_velocity_floor is nan; it must be in (0, 1]");
+  open->set_deadband_velocity_floor(0);
+  open->set_keepalive_s(0.1);
+  ExpectError(harness.Call(request), v1::Error::CODE_BAD_REQUEST,
+              "open_session.keepalive_s is 0.1; it must be in (0, 0.025] (half the server's 50 ms watchdog at "
+              "most)");
+  open->set_keepalive_s(0);
+  open->set_device_type(v1::DEVICE_TYPE_ADMITTANCE);
+  ExpectError(harness.Call(request), v1::Error::CODE_BAD_REQUEST,
+              "open_session.deadband is 0.1 for an admittance device; the deadband is for impedance devices");
+  open->set_deadband(0);
+  open->set_tdpa(true);
+  ExpectError(harness.Call(request), v1::Error::CODE_BAD_REQUEST,
+              "open_session.tdpa is true for an admittance device; two-port passivity is for impedance devices "
+              "(position up, force down)");
+  open->set_tdpa(false);
+  open->set_device_type(v1::DEVICE_TYPE_IMPEDANCE);
   const v1::Reply opened = harness.Call(request);
   ASSERT_TRUE(opened.has_session_opened()) << opened.DebugString();
   EXPECT_NE(opened.session_opened().session_id(), 0u);

@@ -110,7 +110,7 @@ TEST(GoldenVectors, DatagramsMatchTheCodec) {
         << name;
     ++checked;
   }
-  EXPECT_EQ(checked, 5);
+  EXPECT_EQ(checked, 7);
 }
 
 // The vectors a local model session sends: the command's fragment checked above, the
@@ -193,6 +193,45 @@ TEST(GoldenVectors, TheSceneReplyIsWhatTheServerDescribes) {
   }
   EXPECT_TRUE(google::protobuf::util::MessageDifferencer::Equals(described, want))
       << "server: " << described.ShortDebugString() << "\nvector: " << want.ShortDebugString();
+}
+
+// The channel's fields: a session that asks for two-port passivity and a deadband, and
+// the energies and counts its datagrams carry, as the codec reads them.
+TEST(GoldenVectors, TheChannelsSettingsAndEnergiesReadBack) {
+  const rapidjson::Document document = LoadVectors();
+  ASSERT_TRUE(document.IsObject());
+  v1::Request request;
+  ASSERT_TRUE(request.ParseFromString(FromHex(FindVector(document, "open_session_channel")["hex"].GetString())));
+  const ChannelRequest channel = ReadChannelRequest(request.open_session());
+  EXPECT_TRUE(channel.tdpa);
+  EXPECT_EQ(channel.deadband.weber, 0.1);
+  EXPECT_EQ(channel.deadband.force_floor_n, 0.05);
+  EXPECT_EQ(channel.deadband.position_floor_m, 0.0002);
+  EXPECT_EQ(channel.deadband.velocity_floor_mps, 0.004);
+  EXPECT_EQ(channel.deadband.keepalive_s, 0.02);
+
+  DatagramCodec codec;
+  const auto datagram = [&](const char* name) {
+    return FromHex(FindVector(document, name)["datagram_hex"].GetString());
+  };
+  const std::string state_bytes = datagram("device_state_channel");
+  DeviceStateSample state;
+  ASSERT_EQ(codec.ParseState({reinterpret_cast<const uint8_t*>(state_bytes.data()), state_bytes.size()}, state),
+            DatagramError::kNone);
+  EXPECT_EQ(state.energy_in, 0.0125);
+  EXPECT_EQ(state.energy_out, 0.00375);
+  EXPECT_EQ(state.states_held, 918u);
+  EXPECT_TRUE(state.keepalive);
+  const std::string command_bytes = datagram("device_command_predicted");
+  DeviceCommandSample command;
+  ASSERT_EQ(codec.ParseCommand({reinterpret_cast<const uint8_t*>(command_bytes.data()), command_bytes.size()},
+                               command),
+            DatagramError::kNone);
+  EXPECT_EQ(command.flags, static_cast<uint32_t>(v1::COMMAND_FLAGS_PREDICTED));
+  EXPECT_EQ(command.energy_in, 0.005);
+  EXPECT_EQ(command.energy_out, 0.0025);
+  EXPECT_EQ(command.commands_held, 907u);
+  EXPECT_EQ(command.command_number, 94u);
 }
 
 }  // namespace

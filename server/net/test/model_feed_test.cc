@@ -18,13 +18,13 @@ using testing::Harness;
 
 constexpr int kDeadlineMs = 5000;
 
-v1::Request OpenRequest(v1::DeviceType type, v1::RemoteMode mode) {
+v1::Request OpenRequest(v1::DeviceType type, v1::RemoteMode mode, double max_velocity = 0.5) {
   v1::Request request;
   v1::OpenSession* open = request.mutable_open_session();
   open->set_device_type(type);
   open->set_degrees_of_freedom(3);
   open->set_max_force(50);
-  open->set_max_velocity(0.5);
+  open->set_max_velocity(max_velocity);
   open->set_rate_hz(1000);
   open->set_remote_mode(mode);
   open->mutable_start()->set_z(0.08);  // 3 cm above the test box's top (z = 0.05)
@@ -36,8 +36,8 @@ struct Session {
   SessionKey key{};
 };
 
-Session Open(Harness& harness, v1::RemoteMode mode) {
-  const v1::Reply reply = harness.Call(OpenRequest(v1::DEVICE_TYPE_IMPEDANCE, mode));
+Session Open(Harness& harness, v1::RemoteMode mode, double max_velocity = 0.5) {
+  const v1::Reply reply = harness.Call(OpenRequest(v1::DEVICE_TYPE_IMPEDANCE, mode, max_velocity));
   EXPECT_TRUE(reply.has_session_opened()) << reply.DebugString();
   Session session;
   session.id = reply.session_opened().session_id();
@@ -56,8 +56,8 @@ class ModelFeedTest : public ::testing::Test {
     DeviceStateSample state;
     state.session_id = session.id;
     state.sequence = ++sequence_;
-    state.p_WD = Vector3(0, 0, 0.08);
-    state.avatar_W = state.p_WD;
+    state.p_WD = p_W_;
+    state.avatar_W = avatar_W_;
     state.model_version = model_version;
     std::array<uint8_t, kMaxStateSize> buffer;
     device.SendRaw({buffer.data(), codec_.EncodeState(state, session.key, buffer)});
@@ -92,6 +92,8 @@ class ModelFeedTest : public ::testing::Test {
   ModelAssembler assembler_;
   std::vector<uint8_t> fragment_bytes_;
   uint64_t sequence_ = 0;
+  Vector3 p_W_ = Vector3(0, 0, 0.08);       // where Exchange's states put the device
+  Vector3 avatar_W_ = Vector3(0, 0, 0.08);  // and its own proxy
 };
 
 TEST_F(ModelFeedTest, ALocalModelSessionGetsTheSceneNearItInFragmentsUntilItHoldsIt) {
@@ -155,6 +157,34 @@ TEST_F(ModelFeedTest, ASceneEditBringsANewerModel) {
   EXPECT_GE(model->radius, ModelFeed::kRadiusSlack * remote::kModelMarginM);
   ASSERT_EQ(model->objects.size(), 1u);
   EXPECT_EQ(model->objects[0].name, "ball");
+}
+
+// A device fast enough that its reach over the round trip passes the largest ball (1 m):
+// a newer cut about the same point would be the same model, so none is cut while the
+// hand rests (on a long round trip the feed used to send one per round trip), and one
+// is as soon as the avatar has travelled.
+TEST_F(ModelFeedTest, AReachPastTheLargestBallRecutsOnlyAsTheAvatarTravels) {
+  const Session session = Open(harness_, v1::REMOTE_MODE_LOCAL_MODEL, 5);
+  DeviceSocket device(harness_.realtime.local_endpoint().port());
+  // the device 0.5 mm past its proxy (pressing a surface), as the proxy reports
+  p_W_ = Vector3(0, 0, 0.0795);
+  ASSERT_TRUE(Exchange(device, session, 0));
+  const int64_t t0 = MonotonicNowNs();
+  feed_.Pass(t0);
+  const auto model = Gather(device, session, 0);
+  ASSERT_TRUE(model);
+  EXPECT_EQ(model->radius, remote::kMaxModelRadiusM);  // 5 m/s x 0.2 s: capped
+  // held, the round trip measured 0.3 s later (a long one): the hand has not moved
+  ASSERT_TRUE(Exchange(device, session, 1));
+  feed_.Pass(t0 + 300'000'000);
+  feed_.Pass(t0 + 600'000'000);
+  EXPECT_EQ(feed_.models_cut(), 1u);
+  // the proxy 10 cm further: a ball about it covers more
+  avatar_W_ = Vector3(0.1, 0, 0.08);
+  p_W_ = avatar_W_;
+  ASSERT_TRUE(Exchange(device, session, 1));
+  feed_.Pass(t0 + 900'000'000);
+  EXPECT_EQ(feed_.models_cut(), 2u);
 }
 
 TEST_F(ModelFeedTest, ADirectSessionGetsNoModel) {

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -49,9 +50,11 @@ struct OpenedSession {
   SessionKey key{};
 };
 
-OpenedSession Open(Harness& harness, v1::DeviceType type, const Vector3& start, double timeout_s = 0) {
+OpenedSession Open(Harness& harness, v1::DeviceType type, const Vector3& start, double timeout_s = 0,
+                   const std::function<void(v1::OpenSession&)>& more = {}) {
   v1::Request request;
   v1::OpenSession* open = request.mutable_open_session();
+  if (more) more(*open);
   open->set_device_type(type);
   open->set_degrees_of_freedom(3);
   open->set_max_force(50);
@@ -354,9 +357,16 @@ TEST_F(RealtimeChannelTest, ManySessionsAreServedSideBySide) {
 TEST_F(RealtimeChannelTest, TheRealtimePathAllocatesNothing) {
   const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
   const OpenedSession second = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
+  // a third with two-port passivity and a deadband: its ports, held answers and
+  // predicted ticks on the same path
+  const OpenedSession channel = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1}, 0, [](v1::OpenSession& open) {
+    open.set_tdpa(true);
+    open.set_deadband(0.1);
+  });
   DeviceSocket device(harness_.realtime.local_endpoint().port());
   ASSERT_TRUE(Exchange(device, session, StateAt(1, {0, 0, 0.06})));
   ASSERT_TRUE(Exchange(device, second, StateAt(1, {0, 0, 0.06})));
+  ASSERT_TRUE(Exchange(device, channel, StateAt(1, {0, 0, 0.06})));
   const int first_index = harness_.sessions.FindById(session.id);
   const int second_index = harness_.sessions.FindById(second.id);
   ASSERT_GE(first_index, 0);
@@ -369,7 +379,10 @@ TEST_F(RealtimeChannelTest, TheRealtimePathAllocatesNothing) {
   int answered = 0;
   for (uint64_t sequence = 2; sequence < 500; ++sequence) {
     DeviceStateSample state = StateAt(sequence, {0.001 * (sequence % 7), 0, 0.05 - 1e-5 * sequence});
-    for (const OpenedSession* s : {&session, &second}) {
+    state.v_WD = Vector3(0, 0, -0.01 * (sequence % 3));
+    state.energy_in = 1e-4 * sequence;
+    state.keepalive = sequence % 10 == 0;
+    for (const OpenedSession* s : {&session, &second, &channel}) {
       state.session_id = s->id;
       const std::size_t size = codec_.EncodeState(state, s->key, out);
       device.SendRaw({out.data(), size});
@@ -396,6 +409,119 @@ TEST_F(RealtimeChannelTest, TheRealtimePathAllocatesNothing) {
   EXPECT_GE(answered, 900);
   EXPECT_GE(harness_.realtime.counters().bad_tag.load(), 900u);
   EXPECT_GE(harness_.realtime.counters().replayed.load(), 900u);
+  const SessionTelemetrySample telemetry = harness_.sessions.slot(harness_.sessions.FindById(channel.id)).published.Read();
+  EXPECT_GT(telemetry.tdpa_activations + telemetry.commands_held + telemetry.predicted_ticks, 0u);
+}
+
+// The channel's two ports: every impedance session reports them, and under TDPA the
+// server lets its avatar input into the box only with energy the device let in: until
+// then the input waits at the surface (the drift), then it catches up.
+TEST_F(RealtimeChannelTest, TwoPortPassivityHoldsTheInputBackUntilEnergyComes) {
+  const OpenedSession plain = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1});
+  const OpenedSession tdpa =
+      Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1}, 0, [](v1::OpenSession& open) { open.set_tdpa(true); });
+  DeviceSocket device(harness_.realtime.local_endpoint().port());
+  // both pressed 5 mm into the box (top z = 0.05, 1000 N/m), the device reporting no
+  // energy let in
+  std::optional<DeviceCommandSample> pressed, held;
+  uint64_t number = 0;
+  for (uint64_t sequence = 1; sequence <= 3; ++sequence) {
+    const Vector3 p(0, 0, sequence == 1 ? 0.06 : 0.045);
+    pressed = Exchange(device, plain, StateAt(sequence, p));
+    held = Exchange(device, tdpa, StateAt(sequence, p));
+    ASSERT_TRUE(pressed && held);
+    // numbered from 1, in order (a watchdog command of a stalled test counts too)
+    EXPECT_GT(held->command_number, number);
+    if (sequence == 1) EXPECT_EQ(held->command_number, 1u);
+    number = held->command_number;
+  }
+  EXPECT_NEAR(pressed->f_W.z(), 5, 1e-5);
+  // the plain session's input went 5 mm in: its port let out work, which it reports
+  EXPECT_GT(pressed->energy_out, 0);
+  EXPECT_EQ(held->f_W, Vector3::Zero());
+  EXPECT_EQ(held->energy_out, 0);
+  const auto telemetry = [&] { return harness_.sessions.slot(harness_.sessions.FindById(tdpa.id)).published.Read(); };
+  EXPECT_NEAR(telemetry().drift_m, 0.005, 1e-5);
+  EXPECT_GT(telemetry().tdpa_activations, 0u);
+  // the device reports 1 J let in: the input catches up and the box pushes back
+  DeviceStateSample state = StateAt(4, {0, 0, 0.045});
+  state.energy_in = 1;
+  state.energy_out = 0.25;
+  const auto caught = Exchange(device, tdpa, state);
+  ASSERT_TRUE(caught);
+  EXPECT_NEAR(caught->f_W.z(), 5, 1e-5);
+  EXPECT_LE(caught->energy_out, 1);
+  const SessionTelemetrySample after = telemetry();
+  EXPECT_NEAR(after.drift_m, 0, 1e-12);
+  EXPECT_NEAR(after.max_drift_m, 0.005, 1e-5);
+  EXPECT_EQ(after.device_energy.in, 1);
+  EXPECT_EQ(after.device_energy.out, 0.25);
+  EXPECT_EQ(after.server_energy.out, caught->energy_out);
+}
+
+// A deadband session's answers: the first, a keep-alive's and any whose force leaves
+// the band always go out; the rest may be held (counted), and a silent tick's
+// prediction that leaves the band goes out flagged PREDICTED.
+TEST_F(RealtimeChannelTest, TheDeadbandHoldsBackWhatAPersonCouldNotTell) {
+  const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1}, 0, [](v1::OpenSession& open) {
+    open.set_deadband(0.1);
+    open.set_keepalive_s(0.025);
+  });
+  DeviceSocket device(harness_.realtime.local_endpoint().port());
+  uint64_t sequence = 0;
+  const auto first = Exchange(device, session, StateAt(++sequence, {0, 0, 0.045}));
+  ASSERT_TRUE(first);
+  EXPECT_NEAR(first->f_W.z(), 5, 1e-5);
+  // within the band (5 N +- 0.5 N + 0.02 N): sent back to back, most are held
+  std::array<uint8_t, kMaxDatagramSize> buffer;
+  for (int i = 0; i < 100; ++i) {
+    DeviceStateSample state = StateAt(++sequence, {0, 0, 0.045 - 1e-6 * (i % 5)});
+    state.session_id = session.id;
+    device.SendRaw({buffer.data(), codec_.EncodeState(state, session.key, buffer)});
+  }
+  const auto telemetry = [&] { return harness_.sessions.slot(harness_.sessions.FindById(session.id)).published.Read(); };
+  EXPECT_TRUE(WaitUntil([&] { return telemetry().states_received == sequence; }));
+  SessionTelemetrySample counted = telemetry();
+  EXPECT_GE(counted.commands_held, 1u);
+  EXPECT_LT(counted.commands_held, counted.states_received);  // the first was answered
+  EXPECT_GE(counted.commands_held + counted.commands_sent, counted.states_received);
+  while (device.Receive(0)) {
+  }
+  // out of the band: answered, carrying the count held so far
+  const auto deeper = Exchange(device, session, StateAt(++sequence, {0, 0, 0.04}));
+  ASSERT_TRUE(deeper);
+  EXPECT_NEAR(deeper->f_W.z(), 10, 1e-5);
+  EXPECT_EQ(deeper->commands_held, telemetry().commands_held);
+  // a keep-alive in the band: answered
+  DeviceStateSample keepalive = StateAt(++sequence, {0, 0, 0.04});
+  keepalive.keepalive = true;
+  keepalive.states_held = 57;
+  const auto alive = Exchange(device, session, keepalive);
+  ASSERT_TRUE(alive);
+  EXPECT_EQ(alive->sequence, sequence);
+  EXPECT_EQ(telemetry().states_held, 57u);
+  EXPECT_EQ(telemetry().keepalives, 1u);
+  // moving into the box at 1 m/s: the server's predictions leave the band before the
+  // next state would come, and go out flagged, for this state (a machine stalled past
+  // the keep-alive renders none: another state tries again)
+  std::optional<DeviceCommandSample> predicted;
+  for (int attempt = 0; attempt < 10 && !predicted; ++attempt) {
+    DeviceStateSample moving = StateAt(++sequence, {0, 0, 0.04});
+    moving.v_WD = Vector3(0, 0, -1);
+    moving.keepalive = true;  // answered at once, so the prediction is measured from it
+    ASSERT_TRUE(Exchange(device, session, moving));
+    while (const auto next = ReceiveCommand(device, session, kQuietMs)) {
+      if (next->flags & v1::COMMAND_FLAGS_PREDICTED) {
+        predicted = next;
+        break;
+      }
+    }
+  }
+  ASSERT_TRUE(predicted) << "no predicted command in 10 tries";
+  EXPECT_EQ(predicted->sequence, sequence);
+  EXPECT_GT(predicted->f_W.z(), 10.5);  // deeper than the state said
+  EXPECT_GT(predicted->command_number, alive->command_number);
+  EXPECT_GT(telemetry().predicted_ticks, 0u);
 }
 
 }  // namespace

@@ -395,6 +395,12 @@ def open_session(
     start: ArrayLike = (0, 0, 0),
     session_timeout_s: float = 0.0,
     remote_mode: str = "direct",
+    tdpa: bool = False,
+    deadband: float = 0.0,
+    deadband_force_floor: float = 0.0,
+    deadband_position_floor: float = 0.0,
+    deadband_velocity_floor: float = 0.0,
+    keepalive_s: float = 0.0,
     timeout_s: float | None = None,
 ) -> Call[SessionInfo]:
     """Client.open_session (see SessionOptions). peer_host: where a wildcard UDP
@@ -405,6 +411,14 @@ def open_session(
     check.choice(avatar, "avatar", tuple(AVATARS))
     check.choice(method, "method", tuple(FORCE_METHODS))
     check.choice(remote_mode, "remote_mode", tuple(REMOTE_MODES))
+    if not isinstance(tdpa, bool):
+        raise LocalError(f"tdpa is {tdpa!r}; it must be True or False")
+    weber = check.limited(deadband, "deadband", "deadband")
+    if (tdpa or weber > 0) and device_type != "impedance":
+        raise LocalError(
+            f"{'tdpa' if tdpa else 'deadband'} is set for an admittance device; two-port "
+            "passivity and the deadband are for impedance devices"
+        )
     if remote_mode == "local_model" and device_type != "impedance":
         raise LocalError(
             "remote_mode is 'local_model' for an admittance device; a local model is for "
@@ -438,6 +452,29 @@ def open_session(
             session_timeout_s, "session_timeout_s", "session_timeout_s", "the server's 2 s"
         ),
         remote_mode=REMOTE_MODES[remote_mode],
+        tdpa=tdpa,
+        deadband=weber,
+        deadband_force_floor=check.limited_or_zero(
+            deadband_force_floor,
+            "deadband_force_floor",
+            "deadband_force_floor",
+            "the server's 0.02 N",
+        ),
+        deadband_position_floor=check.limited_or_zero(
+            deadband_position_floor,
+            "deadband_position_floor",
+            "deadband_position_floor",
+            "the server's 1e-4 m",
+        ),
+        deadband_velocity_floor=check.limited_or_zero(
+            deadband_velocity_floor,
+            "deadband_velocity_floor",
+            "deadband_velocity_floor",
+            "the server's 0.002 m/s",
+        ),
+        keepalive_s=check.limited_or_zero(
+            keepalive_s, "keepalive_s", "keepalive_s", "the server's 0.01 s"
+        ),
     )
     reply = yield Request("open_session", message, timeout_s)
     opened = body(reply, "session_opened", pb.SessionOpened)

@@ -409,6 +409,18 @@ def session_telemetry_from(message: pb.SessionTelemetry) -> SessionTelemetry:
         model_version=message.model_version,
         device_avatar=array3(message.device_avatar) if message.HasField("device_avatar") else None,
         model_fragments_sent=message.model_fragments_sent,
+        server_energy_in=message.server_energy_in,
+        server_energy_out=message.server_energy_out,
+        device_energy_in=message.device_energy_in,
+        device_energy_out=message.device_energy_out,
+        channel_energy=message.channel_energy,
+        drift=message.drift,
+        max_drift=message.max_drift,
+        tdpa_activations=message.tdpa_activations,
+        states_held=message.states_held,
+        keepalives=message.keepalives,
+        commands_held=message.commands_held,
+        predicted_ticks=message.predicted_ticks,
     )
 
 

@@ -68,6 +68,13 @@ RANGES: dict[str, Range] = {
     # OpenSession.timeout_s (0: the server's 2 s): after the watchdog's 0.05 s timeout
     # and 0.1 s ramp, within an hour (server/net/proto_convert.cc)
     "session_timeout_s": Range(0.15, 3600, "s"),
+    # OpenSession's deadband (0 on the wire for a floor or the keep-alive: the server's
+    # default): remote::ValidateDeadband, server/remote/deadband.h
+    "deadband": Range(0, 1, high_open=True),
+    "deadband_force_floor": Range(0, 10, "N", low_open=True),
+    "deadband_position_floor": Range(0, 0.01, "m", low_open=True),
+    "deadband_velocity_floor": Range(0, 1, "m/s", low_open=True),
+    "keepalive_s": Range(0, 0.025, "s", low_open=True),
     # Scene objects: SceneLimits, server/scene/scene_limits.h
     "coordinate": Range(-1e4, 1e4, "m"),  # positions, vertices, hull points
     "size": Range(0, 1e3, "m", low_open=True),  # radii, half extents

@@ -74,6 +74,12 @@ class SessionOptions(TypedDict, total=False):
     - remote_mode: "direct" (default: the device renders each command's force) or
       "local_model" (impedance only: the commands carry models of the scene near the
       device, which renders its force itself: DeviceSession.render)
+    - tdpa: two-port time-domain passivity across the channel (impedance only: the
+      channel cannot generate energy; DeviceSession.limit_force is the device's end)
+    - deadband: a perceptual deadband's Weber fraction (impedance only, in [0, 1), 0:
+      off), with deadband_force_floor (N), deadband_position_floor (m) and
+      deadband_velocity_floor (m/s) (0: the server's 0.02, 1e-4, 0.002) and keepalive_s
+      (s, in (0, 0.025]; 0: 0.01); see hapticd.proto's OpenSession
     - timeout_s: this request's timeout, s
     """
 
@@ -92,6 +98,12 @@ class SessionOptions(TypedDict, total=False):
     start: ArrayLike
     session_timeout_s: float
     remote_mode: str
+    tdpa: bool
+    deadband: float
+    deadband_force_floor: float
+    deadband_position_floor: float
+    deadband_velocity_floor: float
+    keepalive_s: float
     timeout_s: float | None
 
 

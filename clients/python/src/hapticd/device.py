@@ -22,6 +22,14 @@ device, which every authentic command of the session hands to a LocalRenderer
 (local_model.py, the server's own renderer), and render() gives each tick's force from
 the newest model, whether or not a command came. Its states tell the server the newest
 model held and the avatar on it, about which the server cuts the next.
+
+A session opened with tdpa or a deadband (Client.open_session(tdpa=True, deadband=0.1))
+runs the device's end of the channel (local_model.DeviceChannel, the C++ hapticd-proxy
+runs): each send_state samples its passivity port (the force held over the handle's
+move) and sends its energies; limit_force(force, dt) is the force to render under
+two-port passivity, bounded by the energy the server's commands report; and under the
+deadband send_state sends only a state the server could not predict, or a keep-alive,
+returning 0 when it held one back (counted in counters.held).
 """
 
 from __future__ import annotations
@@ -38,7 +46,7 @@ from hapticd._closing import ClosesOnExit
 from hapticd._datagram import MAX_COMMAND_BYTES, decode_command, encode_state
 from hapticd._validate import FloatArray
 from hapticd.errors import ConnectionClosed, LocalError, ProtocolError, SessionEnded
-from hapticd.local_model import LocalForce, LocalRenderer
+from hapticd.local_model import DeviceChannel, LocalForce, LocalRenderer
 from hapticd.results import SessionInfo
 from hapticd.v1 import hapticd_pb2 as pb
 
@@ -78,6 +86,8 @@ class DeviceCounters:
     lost: int = 0
     stale: int = 0
     bad: int = 0
+    held: int = 0  # deadband: states held back (not sent)
+    keepalives: int = 0  # deadband: states sent for the keep-alive alone
 
 
 def _vec3(message: pb.Vec3) -> FloatArray:
@@ -124,7 +134,9 @@ class DeviceSession(ClosesOnExit):
     theory of operation). Not thread-safe; close() or leave its with block to end the
     session on the server too."""
 
-    def __init__(self, info: SessionInfo) -> None:
+    def __init__(self, info: SessionInfo, *, handle_mass: float = 0.05) -> None:
+        """handle_mass (kg, > 0): the least mass the device's force moves, which the
+        device's passivity port predicts with (tdpa sessions)."""
         self.info = info
         self.counters = DeviceCounters()
         self.rtt_ns: list[int] = []
@@ -136,6 +148,17 @@ class DeviceSession(ClosesOnExit):
         self.local: LocalRenderer | None = None
         if info.remote_mode == "local_model":
             self.local = LocalRenderer(info.open_request)
+        # two-port passivity and the deadband: the device's end of the channel
+        self.channel: DeviceChannel | None = None
+        self.server_energy_in = 0.0  # the largest any command of the session reported
+        self.server_energy_out = 0.0
+        self.commands_held = 0
+        opened = pb.OpenSession()
+        opened.ParseFromString(info.open_request)
+        self._tdpa = info.device_type == "impedance" and opened.tdpa
+        if info.device_type == "impedance" and (opened.tdpa or opened.deadband > 0):
+            self.channel = DeviceChannel(info.open_request, handle_mass)
+        self._states_held = 0
         self._opened_ns = time.monotonic_ns()
         self._rendered = np.zeros(3)
         family, kind, proto, _, address = socket.getaddrinfo(
@@ -158,6 +181,8 @@ class DeviceSession(ClosesOnExit):
         self._socket = None
         if self.local is not None:
             self.local.close()
+        if self.channel is not None:
+            self.channel.close()
         if self.info.close_session is not None:
             self.info.close_session()
 
@@ -183,9 +208,11 @@ class DeviceSession(ClosesOnExit):
         """Sends one state: the handle's position (m) and velocity (m/s) in W, the pressed
         buttons (bit i: button i), for impedance the force held since the previous state
         (N; default the last command's force), for admittance the person's force at the
-        handle (N, required). Returns its sequence number. LocalError for a non-finite
-        value or a missing sensed_force. A local-model device's held force defaults to
-        the last one render() gave, and its state carries the model it holds."""
+        handle (N, required). Returns its sequence number, or 0 when the session's
+        deadband held it back (nothing sent). LocalError for a non-finite value or a
+        missing sensed_force. A local-model device's held force defaults to the last one
+        render() gave (under tdpa, limit_force()), and its state carries the model it
+        holds."""
         sock = self._live_socket()
         state = self._state
         _set_vec3(state.position, position, "position")
@@ -199,7 +226,7 @@ class DeviceSession(ClosesOnExit):
             _set_vec3(state.sensed_force, sensed_force, "sensed_force")
         else:
             held = held_force
-            if held is None and self.local is not None:
+            if held is None and (self.local is not None or self._tdpa):
                 held = self._rendered
             elif held is None:
                 held = self.last_command.force if self.last_command else (0.0, 0.0, 0.0)
@@ -207,6 +234,19 @@ class DeviceSession(ClosesOnExit):
         if self.local is not None:
             state.model_version = self.local.model_version
             _set_vec3(state.avatar, self.local.avatar, "avatar")
+        if self.channel is not None:
+            h = state.held_force
+            verdict = self.channel.sample(
+                self.session_time_s(), position, velocity, (h.x, h.y, h.z)
+            )
+            state.energy_in, state.energy_out = self.channel.energy_in, self.channel.energy_out
+            if verdict == DeviceChannel.HOLD:
+                self._states_held += 1
+                self.counters.held += 1
+                return 0
+            state.keepalive = verdict == DeviceChannel.KEEPALIVE
+            self.counters.keepalives += int(state.keepalive)
+            state.states_held = self._states_held
         self._sequence += 1
         state.sequence = self._sequence
         state.rtt_us = self._last_rtt_us
@@ -244,6 +284,12 @@ class DeviceSession(ClosesOnExit):
             if message.session_id != self.info.session_id:
                 self.counters.bad += 1
                 continue
+            # the server's end of the channel, as it reports it (never decreasing)
+            if math.isfinite(message.energy_in):
+                self.server_energy_in = max(self.server_energy_in, message.energy_in)
+            if math.isfinite(message.energy_out):
+                self.server_energy_out = max(self.server_energy_out, message.energy_out)
+            self.commands_held = max(self.commands_held, message.commands_held)
             if self.local is not None and message.HasField("model"):
                 try:
                     self.local.offer(message.model, self.session_time_s())
@@ -316,6 +362,15 @@ class DeviceSession(ClosesOnExit):
         self._rendered = rendered.force
         return rendered
 
+    def limit_force(self, force: ArrayLike, dt: float) -> FloatArray:
+        """The force (N) to render over the coming dt s: under tdpa, force saturated at
+        the session's max_force and limited by the device's passivity port to what the
+        server's commands have let in; otherwise force itself."""
+        if self.channel is None:
+            return np.asarray(force, dtype=np.float64).reshape(3).copy()
+        self._rendered = self.channel.limit(self.server_energy_in, force, dt)
+        return self._rendered.copy()
+
     def exchange(
         self,
         position: ArrayLike,
@@ -326,10 +381,13 @@ class DeviceSession(ClosesOnExit):
         held_force: ArrayLike | None = None,
         sensed_force: ArrayLike | None = None,
     ) -> Command | None:
-        """send_state then receive_command for it: the command, or None when lost."""
+        """send_state then receive_command for it: the command, or None when lost (or,
+        under a deadband, when the state was held back: nothing is awaited)."""
         sequence = self.send_state(
             position, velocity, buttons=buttons, held_force=held_force, sensed_force=sensed_force
         )
+        if sequence == 0:
+            return None
         return self.receive_command(sequence, timeout_s)
 
 

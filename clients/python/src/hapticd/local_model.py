@@ -76,6 +76,16 @@ def _load() -> ctypes.CDLL:
     library.hapticd_local_renderer_version.argtypes = [p]
     library.hapticd_local_renderer_covers.restype = ctypes.c_int
     library.hapticd_local_renderer_covers.argtypes = [p, _Vec3]
+    library.hapticd_device_channel_new.restype = p
+    library.hapticd_device_channel_new.argtypes = [u8, size, double, ctypes.c_char_p, size]
+    library.hapticd_device_channel_free.restype = None
+    library.hapticd_device_channel_free.argtypes = [p]
+    library.hapticd_device_channel_sample.restype = ctypes.c_int
+    library.hapticd_device_channel_sample.argtypes = [
+        p, double, _Vec3, _Vec3, _Vec3, ctypes.c_double * 2
+    ]
+    library.hapticd_device_channel_limit.restype = ctypes.c_int
+    library.hapticd_device_channel_limit.argtypes = [p, double, _Vec3, double, _Vec3]
     _library = library
     return library
 
@@ -208,3 +218,64 @@ class LocalRenderer:
         """Whether the avatar at position lies within the model's ball."""
         p = _Vec3(*check.vector3(position, "position"))
         return bool(self._library.hapticd_local_renderer_covers(self._live(), p))
+
+
+class DeviceChannel:
+    """The device's end of a session's channel (clients/cpp/c_api/channel_c_api.h, the
+    C++ that hapticd-proxy runs): two-port passivity's port (its damper acts when the
+    session asked for tdpa, else it only observes) and the deadband of its states, both
+    read from the session's own OpenSession request. mass: the handle's, kg (> 0).
+    close() frees it."""
+
+    SEND, KEEPALIVE, HOLD = 1, 2, 0
+
+    def __init__(self, open_request: bytes, mass: float) -> None:
+        self._library = _load()
+        error = ctypes.create_string_buffer(_ERROR_BYTES)
+        handle = self._library.hapticd_device_channel_new(
+            open_request, len(open_request), check.number(mass, "mass"), error, _ERROR_BYTES
+        )
+        if not handle:
+            raise LocalError(
+                f"the device's channel end refused the session: {error.value.decode()}"
+            )
+        self._handle: int | None = handle
+        self.energy_in = 0.0
+        self.energy_out = 0.0
+
+    def close(self) -> None:
+        """Frees it. Idempotent."""
+        if self._handle is not None:
+            self._library.hapticd_device_channel_free(self._handle)
+            self._handle = None
+
+    def _live(self) -> int:
+        if self._handle is None:
+            raise LocalError("the device's channel end is closed")
+        return self._handle
+
+    def sample(
+        self, t: float, position: ArrayLike, velocity: ArrayLike, held_force: ArrayLike
+    ) -> int:
+        """A sample at the start of a tick at t s (non-decreasing): observes the work
+        held_force (N) did over the handle's move to position (m); what becomes of its
+        state: SEND, KEEPALIVE or HOLD (the deadband holds it back)."""
+        p = _Vec3(*check.vector3(position, "position"))
+        v = _Vec3(*check.vector3(velocity, "velocity"))
+        f = _Vec3(*check.vector3(held_force, "held_force"))
+        energy = (ctypes.c_double * 2)()
+        verdict = self._library.hapticd_device_channel_sample(
+            self._live(), check.number(t, "t"), p, v, f, energy
+        )
+        self.energy_in, self.energy_out = float(energy[0]), float(energy[1])
+        return int(verdict)
+
+    def limit(self, server_energy_in: float, force: ArrayLike, dt: float) -> FloatArray:
+        """The force (N) to hold over the coming dt s: force saturated at the session's
+        max_force, and under tdpa no more than server_energy_in (J) allows."""
+        f = _Vec3(*check.vector3(force, "force"))
+        out = _Vec3()
+        self._library.hapticd_device_channel_limit(
+            self._live(), float(server_energy_in), f, check.positive(dt, "dt"), out
+        )
+        return np.array(out[:], dtype=np.float64)

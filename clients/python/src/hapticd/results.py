@@ -286,7 +286,12 @@ class SessionTelemetry:
     server's work budget (--tick-work-budget). A local-model session (the device renders
     its own force from models of the scene the server sends) also reports the newest
     model the device holds (model_version, 0: none yet), the device's own avatar on it
-    (device_avatar, m) and the model fragments the server sent."""
+    (device_avatar, m) and the model fragments the server sent. The channel's two ports
+    (J; the device's as its newest state reported them) and its net energy
+    (channel_energy, positive: the channel generated energy); under tdpa the avatar
+    input's drift behind the device (m, now and at most) and the ticks the server's port
+    cut; under a deadband the states the device held back, the keep-alives, the
+    commands the server held back and the ticks it rendered on a prediction."""
 
     session_id: int
     state: str
@@ -312,6 +317,18 @@ class SessionTelemetry:
     model_version: int
     device_avatar: FloatArray | None
     model_fragments_sent: int
+    server_energy_in: float = 0.0
+    server_energy_out: float = 0.0
+    device_energy_in: float = 0.0
+    device_energy_out: float = 0.0
+    channel_energy: float = 0.0
+    drift: float = 0.0
+    max_drift: float = 0.0
+    tdpa_activations: int = 0
+    states_held: int = 0
+    keepalives: int = 0
+    commands_held: int = 0
+    predicted_ticks: int = 0
 
 
 @dataclass(frozen=True)

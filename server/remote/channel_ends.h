@@ -1,0 +1,95 @@
+#pragma once
+
+// The two ends of a delayed channel under two-port time-domain passivity
+// (two_port_passivity.h), as the simulator, hapticd's realtime thread and the device
+// proxy all run them: one ChannelPort each, and what each end must remember between
+// ticks to observe its tick's work and to predict the next one's.
+//
+//   device end (hapticd-proxy, sim)                 renderer end (hapticd, sim)
+//   Sample(p, v, f_held): observe f_held . dp        Step(scene, target): the avatar input's
+//   Limit(f): the force to hold (LimitForce)   <-->  step towards the newest device position,
+//   energy().in travels up with the states           cut by LimitStep; Observe(output, step)
+//   ReceiveOtherIn(command's in)                     energy().in travels down with the commands
+//
+// Without control both ends only observe: the channel's energy is reported in every mode
+// (a run without TDPA shows what the controller would have to remove). Everything is
+// held by value: no allocation, no lock, no throw (real-time safe).
+
+#include "server/force/render_session.h"
+#include "server/remote/two_port_passivity.h"
+#include "server/scene/scene_snapshot.h"
+
+namespace hapticd::remote {
+
+// The device's end. mass: kg, > 0 (the handle's, the least a change of force moves).
+class DeviceEnd {
+ public:
+  DeviceEnd(bool control, double mass) : port_(control, mass) {}
+  // Off the real-time path or between ticks: the handle at p_W, at rest; energies zero.
+  void Reset(const Vector3& p_W);
+
+  // A sample at the start of a tick: the handle at p_W moving at v_W, after f_W was held
+  // since the last sample (its work over the displacement is observed). Remembers the
+  // velocity extrapolated to the middle of the coming tick (v + (v - v_last) / 2).
+  void Sample(const Vector3& p_W, const Vector3& v_W, const Vector3& f_W);
+  // The newest in the renderer end has reported (a message's).
+  void ReceiveOtherIn(double other_in) { port_.ReceiveOtherIn(other_in); }
+  // The force to hold over the coming tick of dt s, for f_W (already saturated to what
+  // the device renders): itself without control, else through the port's LimitForce.
+  Vector3 Limit(const Vector3& f_W, double dt) { return port_.LimitForce(f_W, v_mid_W_, dt); }
+
+  const ChannelPort& port() const { return port_; }
+  const PortEnergy& energy() const { return port_.energy(); }
+
+ private:
+  ChannelPort port_;
+  Vector3 p_last_W_ = Vector3::Zero();
+  Vector3 v_last_W_ = Vector3::Zero();
+  Vector3 v_mid_W_ = Vector3::Zero();
+};
+
+// What the renderer end knows of the environment about the avatar input, for its
+// port's LimitStep: touching (a force last tick), the object the avatar touched, its
+// stiffness and damping and its motion at the avatar; else the surface nearest the
+// input within the step's reach (a sphere of radius r, the avatar's). dt: the tick, s.
+EnvironmentNear FindEnvironmentNear(const scene::SceneSnapshot& scene, const Vector3& f_env_W, int touched,
+                                    const Vector3& avatar_W, const Vector3& p_input_W, double r,
+                                    const Vector3& step, double dt);
+
+// The renderer's end: its port, the avatar input it has given the session (behind the
+// newest device position while the port holds it back: the position drift), and the
+// session's last force, touched object and avatar.
+class RendererEnd {
+ public:
+  explicit RendererEnd(bool control) : port_(control) {}
+  void Reset(const Vector3& start_W);
+
+  void ReceiveOtherIn(double other_in) { port_.ReceiveOtherIn(other_in); }
+  // The avatar input's step over the coming tick of dt s towards target_W (the newest
+  // device position), r the avatar's radius. Without control: the whole way. With it:
+  // through LimitStep; the rest is the drift, caught up on later ticks as energy
+  // allows (each step aims at the newest target). Advances input_W() by the step.
+  Vector3 Step(const scene::SceneSnapshot& scene, const Vector3& target_W, double r, double dt);
+  // After the session's tick on input_W(): the work its input did on the environment
+  // over step (-F . step, impedance), and the environment it leaves (Remember).
+  void Observe(const force::TickOutput& output, const Vector3& step);
+  // The environment the session's tick leaves: its force, touched object and avatar.
+  void Remember(const force::TickOutput& output);
+  // Takes back a step the session did not take (it refused the input as non-finite or
+  // absurd): the input stays where it was.
+  void Retract(const Vector3& step) { input_W_ -= step; }
+
+  const Vector3& input_W() const { return input_W_; }
+  ChannelPort& port() { return port_; }
+  const ChannelPort& port() const { return port_; }
+  const PortEnergy& energy() const { return port_.energy(); }
+
+ private:
+  ChannelPort port_;
+  Vector3 input_W_ = Vector3::Zero();    // the session's last input position
+  Vector3 f_env_W_ = Vector3::Zero();    // the session's last force
+  int touched_ = -1;                     // and the object it touched
+  Vector3 avatar_W_ = Vector3::Zero();   // and its avatar (proxy)
+};
+
+}  // namespace hapticd::remote

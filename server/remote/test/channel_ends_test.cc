@@ -1,0 +1,202 @@
+// The channel's two ends as the simulator, the server and the device proxy run them:
+// what each observes, how each limits, the drift and its catching up, and that a tick
+// of either allocates nothing.
+#include "server/remote/channel_ends.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "server/net/test/count_allocations.h"
+#include "server/remote/deadband.h"
+#include "server/scene/test/test_scenes.h"
+
+namespace hapticd::remote {
+namespace {
+
+using scene::testing::MakeMaterial;
+using scene::testing::MakeObject;
+
+constexpr double kDt = 0.001;
+constexpr double kStiffness = 2000;
+
+// A box whose top face is the plane z = 0.
+std::shared_ptr<const scene::SceneSnapshot> BoxScene() {
+  scene::SceneBuilder builder;
+  builder.Add(MakeObject("box", scene::BoxShape{Vector3(0.05, 0.05, 0.05)}, {0, 0, -0.05}, MakeMaterial(kStiffness)));
+  return builder.Build(1);
+}
+
+// A penalty-like environment answer: the spring's force at the input's depth.
+force::TickOutput Spring(const Vector3& p_W) {
+  force::TickOutput output;
+  output.f_W = Vector3(0, 0, std::max(0.0, -p_W.z()) * kStiffness);
+  output.touched_object = p_W.z() < 0 ? 0 : -1;
+  output.avatar_W = Vector3(p_W.x(), p_W.y(), std::max(0.0, p_W.z()));
+  output.contact = p_W.z() < 0;
+  return output;
+}
+
+TEST(DeviceEndTest, ObservesTheHeldForcesWorkOverEachMove) {
+  DeviceEnd end(false, 0.05);
+  end.Reset(Vector3(0, 0, 0.1));
+  end.Sample(Vector3(0, 0, 0.099), Vector3::Zero(), Vector3(0, 0, 2));  // 2 N up, 1 mm down: in
+  end.Sample(Vector3(0, 0, 0.1), Vector3::Zero(), Vector3(0, 0, 3));    // 3 N up, 1 mm up: out
+  EXPECT_NEAR(end.energy().in, 0.002, 1e-15);
+  EXPECT_NEAR(end.energy().out, 0.003, 1e-15);
+  // without control nothing is limited
+  EXPECT_EQ(end.Limit(Vector3(0, 0, 5), kDt), Vector3(0, 0, 5));
+}
+
+TEST(DeviceEndTest, UnderControlItLimitsAtTheVelocityExtrapolatedToMidTick) {
+  // the same port, given the velocity by hand: v + (v - v_last) / 2
+  DeviceEnd end(true, 0.05);
+  ChannelPort oracle(true, 0.05);
+  end.Reset(Vector3::Zero());
+  end.Sample(Vector3(0, 0, 1e-4), Vector3(0, 0, 0.1), Vector3::Zero());  // from rest: 0.15 m/s
+  const Vector3 v(0, 0, 0.1);
+  EXPECT_EQ(end.Limit(Vector3(0, 0, 5), kDt), oracle.LimitForce(Vector3(0, 0, 5), v + 0.5 * (v - Vector3::Zero()), kDt));
+  end.Sample(Vector3(0, 0, 2e-4), Vector3(0, 0, 0.1), Vector3::Zero());  // steady: 0.1 m/s
+  const Vector3 none = end.Limit(Vector3(0, 0, 5), kDt);
+  EXPECT_EQ(none, oracle.LimitForce(Vector3(0, 0, 5), Vector3(0, 0, 0.1), kDt));
+  EXPECT_TRUE(end.port().active());
+  // nothing let in: no force along the motion (the damper may brake: passive)
+  EXPECT_LE(none.z(), 0);
+  // energy let in at the other end reaches the port
+  end.ReceiveOtherIn(1e-4);
+  EXPECT_EQ(end.port().other_in(), 1e-4);
+  // a force against the motion puts energy in: never cut
+  end.Sample(Vector3(0, 0, 3e-4), Vector3(0, 0, 0.1), none);
+  EXPECT_EQ(end.Limit(Vector3(0, 0, -5), kDt), Vector3(0, 0, -5));
+}
+
+TEST(RendererEndTest, WithoutControlTheInputGoesAllTheWayAndTheWorkIsObserved) {
+  const auto scene = BoxScene();
+  RendererEnd end(false);
+  end.Reset(Vector3(0, 0, 0.001));
+  const Vector3 step = end.Step(*scene, Vector3(0, 0, -0.001), 0, kDt);
+  EXPECT_EQ(step, Vector3(0, 0, -0.002));
+  EXPECT_EQ(end.input_W(), Vector3(0, 0, -0.001));
+  end.Observe(Spring(end.input_W()), step);
+  // the input pushed 2 N into the box over 2 mm: 4 mJ left the channel here
+  EXPECT_NEAR(end.energy().out, 0.004, 1e-15);
+  EXPECT_EQ(end.energy().in, 0);
+}
+
+TEST(RendererEndTest, UnderControlTheInputStopsAtTheSurfaceAndCatchesUpWhenEnergyComes) {
+  const auto scene = BoxScene();
+  RendererEnd end(true);
+  end.Reset(Vector3(0, 0, 0.002));
+  // the device is 1 mm into the box; nothing has come in: the input stops just short of
+  // the surface (the drift is the rest)
+  const Vector3 target(0, 0, -0.001);
+  Vector3 step = end.Step(*scene, target, 0, kDt);
+  end.Observe(Spring(end.input_W()), step);
+  EXPECT_TRUE(end.port().active());
+  EXPECT_GE(end.input_W().z(), 0);
+  EXPECT_NEAR((target - end.input_W()).norm(), 0.001, 2e-6);
+  EXPECT_LE(end.energy().out, 0);
+  // energy comes in at the device's end: each step goes as far as it pays for, never
+  // letting out more than came in, and the input reaches the device
+  end.ReceiveOtherIn(0.01);
+  for (int k = 0; k < 100 && (target - end.input_W()).norm() > 1e-12; ++k) {
+    step = end.Step(*scene, target, 0, kDt);
+    end.Observe(Spring(end.input_W()), step);
+    EXPECT_LE(end.energy().out, end.port().other_in() + 1e-12) << k;
+  }
+  EXPECT_NEAR(end.input_W().z(), target.z(), 1e-12);
+}
+
+TEST(RendererEndTest, AStepTheSessionRefusedIsTakenBack) {
+  const auto scene = BoxScene();
+  RendererEnd end(false);
+  end.Reset(Vector3(0, 0, 0.01));
+  const Vector3 step = end.Step(*scene, Vector3(0.5, 0, 0.01), 0, kDt);
+  end.Retract(step);
+  EXPECT_EQ(end.input_W(), Vector3(0, 0, 0.01));
+}
+
+TEST(RendererEndTest, AnObjectIndexOfAnOlderSceneCountsAsNotTouching) {
+  const auto scene = BoxScene();
+  // a force and an object the scene no longer has (one object now): the nearest surface
+  // is looked up instead
+  const EnvironmentNear near =
+      FindEnvironmentNear(*scene, Vector3(0, 0, 1), 5, Vector3::Zero(), Vector3(0, 0, 0.0005), 0, Vector3(0, 0, -1e-3),
+                          kDt);
+  EXPECT_EQ(near.stiffness, kStiffness);
+  EXPECT_NEAR(near.gap, 0.0005, 1e-12);
+}
+
+// A random hand pressing the device through a delay into the box, the two ends
+// exchanging their energies a delay late: with control the channel never generates
+// energy, without it the same press does.
+double PressThroughDelay(bool control, uint32_t seed) {
+  const auto scene = BoxScene();
+  DeviceEnd device(control, 0.05);
+  RendererEnd renderer(control);
+  const Vector3 start(0, 0, 0.002);
+  device.Reset(start);
+  renderer.Reset(start);
+  constexpr int kDelay = 20;  // ticks each way
+  std::vector<Vector3> up(kDelay, start), down(kDelay, Vector3::Zero());
+  std::vector<double> up_in(kDelay, 0), down_in(kDelay, 0);
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> push(-3, 1);
+  // the handle: 0.05 kg under the hand's push and the force held
+  Vector3 p = start, v = Vector3::Zero(), f_held = Vector3::Zero();
+  for (int k = 0; k < 3000; ++k) {
+    device.Sample(p, v, f_held);
+    up[k % kDelay] = p;
+    up_in[k % kDelay] = device.energy().in;
+    // the renderer gets what the device sent kDelay ticks ago
+    renderer.ReceiveOtherIn(up_in[(k + 1) % kDelay]);
+    const Vector3 step = renderer.Step(*scene, up[(k + 1) % kDelay], 0, kDt);
+    const force::TickOutput output = Spring(renderer.input_W());
+    renderer.Observe(output, step);
+    down[k % kDelay] = output.f_W;
+    down_in[k % kDelay] = renderer.energy().in;
+    device.ReceiveOtherIn(down_in[(k + 1) % kDelay]);
+    f_held = device.Limit(down[(k + 1) % kDelay], kDt);
+    const Vector3 hand(0, 0, push(random));
+    v += (hand + f_held - 0.5 * v) / 0.05 * kDt;
+    p += v * kDt;
+  }
+  const PortEnergy& d = device.energy();
+  const PortEnergy& r = renderer.energy();
+  return (d.out - d.in) + (r.out - r.in);
+}
+
+TEST(ChannelEndsTest, UnderControlTheChannelGeneratesNoEnergyThroughADelay) {
+  for (uint32_t seed = 1; seed <= 5; ++seed) {
+    EXPECT_LE(PressThroughDelay(true, seed), 1e-12) << seed;
+  }
+  // the same presses without control: the delayed spring is active
+  double worst = -1;
+  for (uint32_t seed = 1; seed <= 5; ++seed) worst = std::max(worst, PressThroughDelay(false, seed));
+  EXPECT_GT(worst, 0.01);
+}
+
+TEST(ChannelEndsTest, TheirTicksAllocateNothing) {
+  const auto scene = BoxScene();
+  DeviceEnd device(true, 0.05);
+  RendererEnd renderer(true);
+  device.Reset(Vector3::Zero());
+  renderer.Reset(Vector3(0, 0, 0.002));
+  StateDeadband deadband(DeadbandSettings{0.1});
+  const long before = hapticd::testing::AllocationCount();
+  for (int k = 0; k < 200; ++k) {
+    const Vector3 p(0, 0, 0.002 - 2e-5 * k);
+    device.Sample(p, Vector3(0, 0, -0.02), Vector3(0, 0, 1));
+    device.ReceiveOtherIn(1e-3 * k);
+    const Vector3 f = device.Limit(Vector3(0, 0, 2), kDt);
+    renderer.ReceiveOtherIn(1e-3 * k);
+    const Vector3 step = renderer.Step(*scene, p, 0, kDt);
+    renderer.Observe(Spring(renderer.input_W()), step);
+    deadband.OfferWithKeepalive(k * kDt, p, f, 0.01, kDt);
+  }
+  EXPECT_EQ(hapticd::testing::AllocationCount() - before, 0);
+}
+
+}  // namespace
+}  // namespace hapticd::remote
