@@ -100,6 +100,11 @@ def test_a_partial_material_keeps_the_fields_it_does_not_name(client):
         client.set_material("box", {"dampng": 1})
     with pytest.raises(RemoteError, match="NOT_FOUND"):
         client.set_material("cup", {"damping": 1})
+    # the server checks the material the change makes: a dynamic friction above the
+    # object's static one is refused, naming the field, and nothing changes
+    with pytest.raises(RemoteError, match=r"set_material.change.dynamic_friction"):
+        client.set_material("box", {"dynamic_friction": 0.9})
+    assert client.scene().object("box").material == Material(800, force_shading=True)
 
 
 def test_threads_sharing_one_client_each_get_their_own_large_replies(client):

@@ -69,6 +69,19 @@ def test_a_batch_checks_its_edits_as_they_are_made():
         edits.add_sphere("bad", -1.0)
     with pytest.raises(hapticd.LocalError, match="timeout_s"):
         edits.add_sphere("slow", 0.1, timeout_s=1.0)
-    with pytest.raises(hapticd.LocalError, match="whole Material"):
-        edits.set_material("x", {"damping": 2})
+    with pytest.raises(hapticd.LocalError, match=r"^material.dampng is not a material field"):
+        edits.set_material("x", {"dampng": 2})
     assert len(edits) == 0
+
+
+def test_a_batch_changes_some_fields_of_a_material_as_it_stands_then(client):
+    client.clear_scene()
+    client.add_box("box", (0.05, 0.05, 0.05),
+                   material=hapticd.Material(1500, static_friction=0.6, force_shading=True))
+    edits = hapticd.SceneEdits()
+    edits.set_material("box", {"damping": 2})
+    edits.set_material("box", {"dynamic_friction": 0.5})  # beside the static 0.6 kept
+    client.edit_scene(edits)
+    assert client.scene().object("box").material == hapticd.Material(
+        1500, damping=2, static_friction=0.6, dynamic_friction=0.5, force_shading=True
+    )

@@ -165,7 +165,10 @@ void ApplyRemove(scene::SceneBuilder& builder, const v1::RemoveObject& remove,
 void ApplySetMaterial(scene::SceneBuilder& builder, const v1::SetMaterial& set,
                                       const std::string& field) {
   RequireObject(builder, set.name(), field + ".name");
-  const scene::Material material = ReadMaterial(set.material(), field + ".material");
+  const scene::Material material =
+      set.has_change()
+          ? ReadMaterialChange(set.change(), builder.material(builder.FindObject(set.name())), field + ".change")
+          : ReadMaterial(set.material(), field + ".material");
   NamingTheEdit(field, [&] { builder.SetMaterial(set.name(), material); });
 }
 

@@ -138,6 +138,17 @@ scene::Material ReadMaterial(const v1::Material& material, const std::string& fi
   return result;
 }
 
+scene::Material ReadMaterialChange(const v1::MaterialChange& change, scene::Material current,
+                                   const std::string& field) {
+  if (change.has_stiffness()) current.stiffness = change.stiffness();
+  if (change.has_damping()) current.damping = change.damping();
+  if (change.has_static_friction()) current.static_friction = change.static_friction();
+  if (change.has_dynamic_friction()) current.dynamic_friction = change.dynamic_friction();
+  if (change.has_force_shading()) current.force_shading = change.force_shading();
+  if (auto error = scene::ValidateMaterial(current, field)) throw BadRequest(*error);
+  return current;
+}
+
 scene::ObjectSpec ReadObject(const v1::Object& object, const std::string& field) {
   scene::ObjectSpec spec;
   if (object.name().empty()) throw BadRequest(field + ".name is empty; every object needs a name");

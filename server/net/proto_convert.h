@@ -21,6 +21,10 @@ double RequireInRange(double value, double low, double high, const std::string& 
 geometry::Vector3 ReadVector(const v1::Vec3& v, const std::string& field);
 scene::Pose ReadPose(const v1::Pose& pose, bool present, const std::string& field);
 scene::Material ReadMaterial(const v1::Material& material, const std::string& field);
+// current with the fields change has replaced, checked as a whole (BadRequest naming
+// `field`.stiffness etc.).
+scene::Material ReadMaterialChange(const v1::MaterialChange& change, scene::Material current,
+                                   const std::string& field);
 scene::ObjectSpec ReadObject(const v1::Object& object, const std::string& field);
 
 // The session settings an OpenSession asks for, validated; start_W receives the

@@ -82,6 +82,8 @@ class SceneBuilder {
   int num_objects() const { return static_cast<int>(objects_.size()); }
   // Index of the object named name, or -1 (a hash lookup).
   int FindObject(std::string_view name) const;
+  // The material of the object at index (in [0, num_objects())).
+  const Material& material(int index) const { return objects_[index]->material; }
   // A snapshot of the objects so far (the geometry is shared, not copied).
   std::shared_ptr<const SceneSnapshot> Build(uint64_t version) const;
 

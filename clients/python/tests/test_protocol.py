@@ -13,6 +13,7 @@ from hapticd import _calls as calls
 from hapticd._framing import FrameDecoder, encode_frame
 from hapticd._protocol import ControlProtocol, ReplyArrived, TelemetryArrived
 from hapticd.errors import ConnectionClosed, LocalError, ProtocolError, RemoteError
+from hapticd.scene_edits import SceneEdits
 from hapticd.v1 import hapticd_pb2 as pb
 
 
@@ -310,27 +311,17 @@ def test_an_error_thrown_into_a_call_can_be_handled_there():
     assert not book.is_open(5)
 
 
-def test_a_partial_material_reads_the_scene_then_edits():
-    replies = iter(
-        [
-            pb.Reply(
-                scene=pb.SceneDescription(
-                    objects=[
-                        pb.ObjectInfo(
-                            name="box",
-                            pose=pb.Pose(orientation=pb.Quat(w=1)),
-                            material=pb.Material(stiffness=1500, static_friction=0.6),
-                        )
-                    ]
-                )
-            ),
-            pb.Reply(done=pb.Done(scene_version=9)),
-        ]
-    )
+def test_a_partial_material_is_one_request_naming_only_its_fields():
+    edits = SceneEdits()
+    edits.set_material("box", {"damping": 3.0})
+    message = edits.message().edits[0].set_material
     version, asked = drive(
-        calls.set_material_fields("box", {"damping": 3.0}, 2.0), lambda r: next(replies)
+        calls.edit("set_material", message, 2.0),
+        lambda r: pb.Reply(done=pb.Done(scene_version=9)),
     )
-    assert version == 9
-    assert [r.body_name for r in asked] == ["get_scene", "set_material"]
-    assert asked[1].body.material.stiffness == 1500 and asked[1].body.material.damping == 3
-    assert asked[1].body.material.static_friction == 0.6 and asked[1].timeout_s == 2.0
+    assert version == 9 and [r.body_name for r in asked] == ["set_material"]
+    assert asked[0].body.WhichOneof("what") == "change" and asked[0].timeout_s == 2.0
+    change = asked[0].body.change
+    assert change.HasField("damping") and change.damping == 3.0
+    for other in ("stiffness", "static_friction", "dynamic_friction", "force_shading"):
+        assert not change.HasField(other), other

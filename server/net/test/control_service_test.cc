@@ -64,6 +64,38 @@ TEST(ControlService, EditsPublishNewVersionsAndNameTheirErrors) {
   EXPECT_EQ(harness.publisher.current()->version(), 3u);
 }
 
+// A material change replaces only the fields it has, against the object's material as
+// the server holds it, and checks the whole result.
+TEST(ControlService, AMaterialChangeKeepsTheFieldsItDoesNotHave) {
+  Harness harness;
+  v1::Object box = MakeSphere("ball", 0.1, 1);
+  box.mutable_material()->set_static_friction(0.6);
+  box.mutable_material()->set_force_shading(false);
+  ASSERT_TRUE(harness.Call(Add(box)).has_done());
+  v1::Request set;
+  set.mutable_set_material()->set_name("ball");
+  set.mutable_set_material()->mutable_change()->set_damping(3);
+  // a dynamic friction under the static one kept: valid only beside it
+  set.mutable_set_material()->mutable_change()->set_dynamic_friction(0.5);
+  ASSERT_TRUE(harness.Call(set).has_done());
+  const auto scene = harness.publisher.current();
+  const scene::Material& material = scene->object(scene->FindObject("ball")).material;
+  EXPECT_EQ(material.stiffness, 800);
+  EXPECT_EQ(material.damping, 3);
+  EXPECT_EQ(material.static_friction, 0.6);
+  EXPECT_EQ(material.dynamic_friction, 0.5);
+  EXPECT_FALSE(material.force_shading);
+
+  set.mutable_set_material()->mutable_change()->Clear();
+  set.mutable_set_material()->mutable_change()->set_static_friction(0.2);
+  ExpectError(harness.Call(set), v1::Error::CODE_BAD_REQUEST,
+              "set_material.change.dynamic_friction is 0.5; it must be <= static_friction (0.2)");
+  set.mutable_set_material()->set_name("cup");
+  ExpectError(harness.Call(set), v1::Error::CODE_NOT_FOUND,
+              "set_material.name is \"cup\"; the scene has no object of that name");
+  EXPECT_EQ(harness.publisher.current()->version(), scene->version());
+}
+
 // A batch applies all its edits as one new version, or, when one is refused, none of
 // them, naming the edit by its index.
 TEST(ControlService, ABatchOfEditsIsAppliedAsOne) {

@@ -21,7 +21,7 @@ import pathlib
 import threading
 from collections.abc import Awaitable, Callable, Generator, Iterable
 from dataclasses import dataclass
-from typing import Any, TypeAlias, TypeVar, cast
+from typing import TypeAlias, TypeVar, cast
 
 import numpy as np
 from google.protobuf.message import Message
@@ -32,7 +32,6 @@ from hapticd import _validate as check
 from hapticd._connection import parse_address
 from hapticd._protocol import remote_error
 from hapticd.errors import HapticdError, LocalError, ProtocolError, RemoteError
-from hapticd.objects import Material, material_from
 from hapticd.results import (
     ClosestPoint,
     ClosestPoints,
@@ -191,19 +190,6 @@ def export_scene(path: str | pathlib.Path, timeout_s: float | None) -> Call[Scen
     whole = yield from read_whole_scene(lambda **mesh_data: scene(timeout_s, **mesh_data))
     write_scene_file(path, [info.spec() for info in whole.objects], whole.tolerance)
     return whole
-
-
-def set_material_fields(name: str, changes: dict[str, Any], timeout_s: float | None) -> Call[int]:
-    """Sets the fields changes names (checked) of the object's material, the others
-    as the server holds them: reads the scene, then edits."""
-    current: Material | None = None
-    for info in (yield from scene(timeout_s)).objects:
-        if info.name == name:
-            current = info.material
-            break
-    new = material_from(changes) if current is None else current.updated(changes)
-    message = pb.SetMaterial(name=name, material=codec.material_message(new))
-    return (yield from edit("set_material", message, timeout_s))
 
 
 # ---- queries ----

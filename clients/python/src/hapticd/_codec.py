@@ -107,6 +107,15 @@ def material_message(material: Material) -> pb.Material:
     return message
 
 
+def material_change_message(fields: dict[str, Any]) -> pb.MaterialChange:
+    """A MaterialChange holding the (checked) fields named; force_shading None is the
+    server's default, True."""
+    message = pb.MaterialChange()
+    for key, value in fields.items():
+        setattr(message, key, True if key == "force_shading" and value is None else value)
+    return message
+
+
 def material_from(message: pb.Material) -> Material:
     """A Material from its message (force_shading None when absent)."""
     return Material(

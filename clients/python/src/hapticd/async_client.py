@@ -124,11 +124,6 @@ class AsyncClient(SceneEditor[Edit]):
     def _edit(self, body_name: str, body: Message, timeout_s: float | None) -> Edit:
         return self._run(calls.edit(body_name, body, timeout_s))
 
-    def _edit_material_fields(
-        self, name: str, changes: dict[str, Any], timeout_s: float | None
-    ) -> Edit:
-        return self._run(calls.set_material_fields(name, changes, timeout_s))
-
     async def close(self) -> None:
         """[Client.close][hapticd.Client.close]: closes the sessions this client opened,
         then the connection."""

@@ -24,7 +24,7 @@ from __future__ import annotations
 import pathlib
 import ssl
 from collections.abc import Callable, Iterable, Iterator
-from typing import Any, TypedDict, TypeVar, Unpack
+from typing import TypedDict, TypeVar, Unpack
 
 from google.protobuf.message import Message
 from numpy.typing import ArrayLike
@@ -168,11 +168,6 @@ class Client(ClosesOnExit, SceneEditor[int]):
 
     def _edit(self, body_name: str, body: Message, timeout_s: float | None) -> int:
         return self._run(calls.edit(body_name, body, timeout_s))
-
-    def _edit_material_fields(
-        self, name: str, changes: dict[str, Any], timeout_s: float | None
-    ) -> int:
-        return self._run(calls.set_material_fields(name, changes, timeout_s))
 
     def close(self) -> None:
         """Closes the device sessions this client opened and has not closed (one the

@@ -70,11 +70,6 @@ class Material:
                 self, "force_shading", check.flag(self.force_shading, "material.force_shading")
             )
 
-    def updated(self, changes: Mapping[str, Any]) -> Material:
-        """This material with the fields changes names set to its values, the others
-        kept; LocalError for a field that is not a Material's."""
-        return dataclasses.replace(self, **check_material_fields(changes))
-
 
 @dataclass(frozen=True, eq=False)
 class Pose:

@@ -93,15 +93,9 @@ class SceneEditor(Generic[EditT]):
     """The scene edits: add_* (from a shape's parameters, a spec or a mesh file),
     update_object, remove_object, set_material, move_kinematic. Each returns EditT:
     the new scene version for a Client, an awaitable of it for an AsyncClient, the
-    edit's index for SceneEdits. Subclasses say what an edit does (_edit) and how a
-    material's named fields are changed (_edit_material_fields)."""
+    edit's index for SceneEdits. Subclasses say what an edit does (_edit)."""
 
     def _edit(self, body_name: str, body: Message, timeout_s: float | None) -> EditT:
-        raise NotImplementedError
-
-    def _edit_material_fields(
-        self, name: str, changes: dict[str, Any], timeout_s: float | None
-    ) -> EditT:
         raise NotImplementedError
 
     def add_object(self, spec: ObjectSpec, *, timeout_s: float | None = None) -> EditT:
@@ -218,14 +212,16 @@ class SceneEditor(Generic[EditT]):
         self, name: str, material: Material | dict[str, Any], *, timeout_s: float | None = None
     ) -> EditT:
         """Changes the material of the object called name. A dict changes only the
-        fields it names, e.g. {"damping": 3}: the others keep the object's values, read
-        from the server's scene first (two requests, so an edit another client makes in
-        between is overwritten). A Material replaces the whole material. LocalError for
-        a field that is not a Material's (named); RemoteError NOT_FOUND when there is no
-        such object."""
+        fields it names, e.g. {"damping": 3}: the others keep the object's values (the
+        server reads and writes them in one step, so no other client's edit comes in
+        between). A Material replaces the whole material. LocalError for a field that is
+        not a Material's or a bad value (named); RemoteError NOT_FOUND when there is no
+        such object, BAD_REQUEST when the result is not a material (e.g. a dynamic
+        friction above the static one)."""
         check.object_name(name)
         if isinstance(material, dict):
-            return self._edit_material_fields(name, check_material_fields(material), timeout_s)
+            change = codec.material_change_message(check_material_fields(material))
+            return self._edit("set_material", pb.SetMaterial(name=name, change=change), timeout_s)
         whole = codec.material_message(material_from(material))
         message = pb.SetMaterial(name=name, material=whole)
         return self._edit("set_material", message, timeout_s)
@@ -284,14 +280,6 @@ class SceneEdits(SceneEditor[int]):
         getattr(edit, body_name).CopyFrom(body)
         self._edits.append(edit)
         return len(self._edits) - 1
-
-    def _edit_material_fields(
-        self, name: str, changes: dict[str, Any], timeout_s: float | None
-    ) -> int:
-        raise LocalError(
-            f"set_material({name!r}, ...) in a batch needs a whole Material, not a dict: a "
-            "batch cannot read the server's scene (Client.set_material can)"
-        )
 
     def message(self) -> pb.EditScene:
         """The EditScene request these edits make."""
