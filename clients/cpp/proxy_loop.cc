@@ -31,13 +31,6 @@ DeviceReading NoReading() {
   return reading;
 }
 
-// The force as a device renders it: saturated at max_force, zero when not finite.
-Vector3 Saturated(const Vector3& f_W, double max_force) {
-  if (!f_W.allFinite()) return Vector3::Zero();
-  const double norm = f_W.norm();
-  return norm > max_force ? Vector3(f_W * (max_force / norm)) : f_W;
-}
-
 DeviceOutput OutputOf(const net::DeviceCommandSample& command) {
   DeviceOutput output;
   output.f_W = command.f_W;
@@ -171,8 +164,7 @@ void ProxyLoop::ApplyCommands(double t, double dt, double held_s, ProxyReport& r
       if (channels_[i].tdpa) {
         // saturated before (what the port predicts with) and after (its brake may add
         // to it): the force held is the force rendered, as the observer counts it
-        const double max_force = caps_max_force_[i];
-        output.f_W = Saturated(end.Limit(Saturated(output.f_W, max_force), held_s), max_force);
+        output.f_W = end.LimitSaturated(output.f_W, caps_max_force_[i], held_s);
         report.tdpa_activations += end.port().active() ? 1 : 0;
       }
     }
