@@ -103,6 +103,43 @@ TEST(DeviceEndTest, AnOvershootIsRepaidByTheBrakeBeforeAnythingIsPassedOn) {
   EXPECT_LE(channel, 1e-15);
 }
 
+// A force held across a stall of the device's loop (40 ticks): the sample after it
+// observes the held force's work over the whole displacement, far beyond the allowance;
+// the port owes it and its brake takes it back from the handle's motion on the next
+// ticks (saturated at the device's 10 N), passing none of it on.
+TEST(DeviceEndTest, AForceHeldAcrossAStallIsObservedAndTakenBack) {
+  constexpr double kMass = 0.05, kMaxForce = 10;
+  DeviceEnd end(true, kMass);
+  end.Reset(Vector3::Zero());
+  end.ReceiveOtherIn(2e-3);
+  Vector3 p = Vector3::Zero(), v = Vector3::Zero(), f_held = Vector3::Zero();
+  // a free handle under the force held for ticks ticks
+  const auto hold = [&](int ticks) {
+    const double t = ticks * kDt;
+    p += v * t + 0.5 * f_held / kMass * t * t;
+    v += f_held / kMass * t;
+  };
+  end.Sample(p, v, f_held);
+  f_held = end.LimitSaturated(Vector3(0, 0, 3), kMaxForce, kDt);
+  EXPECT_EQ(f_held, Vector3(0, 0, 3));  // at rest, 3 N fits in a tick
+  hold(40);
+  end.Sample(p, v, f_held);
+  const double stall_work = f_held.z() * p.z();
+  EXPECT_NEAR(end.energy().out, stall_work, 1e-15);
+  EXPECT_NEAR(end.port().owed(), stall_work - 2e-3, 1e-15);
+  int ticks = 0;
+  for (; ticks < 100 && end.port().owed() > 0; ++ticks) {
+    f_held = end.LimitSaturated(Vector3(0, 0, 3), kMaxForce, kDt);
+    EXPECT_LT(f_held.z(), 0) << ticks;  // braking
+    hold(1);
+    end.Sample(p, v, f_held);
+  }
+  EXPECT_EQ(end.port().owed(), 0);
+  EXPECT_LT(ticks, 100);
+  EXPECT_NEAR(end.port().repaid(), stall_work - 2e-3, 1e-12);
+  EXPECT_LE(end.energy().out, end.port().other_in() + 1e-15);
+}
+
 TEST(RendererEndTest, WithoutControlTheInputGoesAllTheWayAndTheWorkIsObserved) {
   const auto scene = BoxScene();
   RendererEnd end(false);
