@@ -325,7 +325,7 @@ TEST(ChannelEndsTest, TheirTicksAllocateNothing) {
     const Vector3 p(0, 0, 0.002 - 2e-5 * k);
     device.Sample(p, Vector3(0, 0, -0.02), Vector3(0, 0, 1));
     device.ReceiveOtherIn(1e-3 * k);
-    const Vector3 f = device.Limit(Vector3(0, 0, 2), kDt);
+    const Vector3 f = device.LimitSaturated(Vector3(0, 0, 2), 8, kDt);
     renderer.ReceiveOtherIn(1e-3 * k);
     const Vector3 step = renderer.Step(*scene, p, 0, kDt);
     renderer.Observe(Spring(renderer.input_W()), step);
