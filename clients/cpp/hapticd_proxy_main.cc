@@ -132,6 +132,7 @@ void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const 
       "\"contacts\": {}, \"watchdog_trips\": {}, \"session_ended\": \"{}\", \"cpu_s\": {:.3f}, "
       "\"tdpa\": {}, \"tdpa_activations\": {}, \"device_energy_in_j\": {:.9f}, \"device_energy_out_j\": {:.9f}, "
       "\"server_energy_in_j\": {:.9f}, \"server_energy_out_j\": {:.9f}, \"channel_energy_j\": {:.9f}, "
+      "\"device_repaid_j\": {:.9f}, \"device_owed_j\": {:.9f}, \"stall_work_j\": {:.9f}, "
       "\"deadband\": {}, \"keepalive_ms\": {}, \"states_held\": {}, \"keepalives\": {}, "
       "\"commands_received\": {}, \"commands_predicted\": {}, \"commands_held\": {}, "
       "\"server_commands_sent\": {}}}\n",
@@ -146,7 +147,8 @@ void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const 
       options.local_model ? "local-model" : "direct", r.models.adopted, r.models.version, r.models.fragments,
       r.models.completed, r.models.rejected, r.models.blends, r.contacts, r.watchdog_trips,
       r.session_ended, cpu_s, options.tdpa, r.tdpa_activations, r.device_energy.in, r.device_energy.out,
-      r.server_end.energy_in, r.server_end.energy_out, r.channel_energy_j(), options.deadband.weber,
+      r.server_end.energy_in, r.server_end.energy_out, r.channel_energy_j(), r.device_repaid_j, r.device_owed_j,
+      r.stall_work_j, options.deadband.weber,
       options.deadband.keepalive_s * 1000, r.states_held, r.keepalives,
       r.packets.answered + r.packets.late + r.packets.predicted, r.packets.predicted, r.server_end.commands_held,
       r.server_end.commands_sent);

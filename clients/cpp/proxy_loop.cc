@@ -31,13 +31,6 @@ DeviceReading NoReading() {
   return reading;
 }
 
-// The force as a device renders it: saturated at max_force, zero when not finite.
-Vector3 Saturated(const Vector3& f_W, double max_force) {
-  if (!f_W.allFinite()) return Vector3::Zero();
-  const double norm = f_W.norm();
-  return norm > max_force ? Vector3(f_W * (max_force / norm)) : f_W;
-}
-
 DeviceOutput OutputOf(const net::DeviceCommandSample& command) {
   DeviceOutput output;
   output.f_W = command.f_W;
@@ -87,7 +80,9 @@ void ProxyLoop::SendStates(double t, int64_t deadline_ns, ProxyReport& report) {
     // the work the force held over the last tick did on the handle (readings_ still
     // holds the last tick's)
     if (kinds_[i] == DeviceKind::kImpedance && readings_[i].p_W.allFinite()) {
-      report.energy_j += held_W_[i].dot(reading.p_W - readings_[i].p_W);
+      const double work = held_W_[i].dot(reading.p_W - readings_[i].p_W);
+      report.energy_j += work;
+      if (after_stall_) report.stall_work_j += std::max(work, 0.0);
     }
     report.lowest_z_m = std::min(report.lowest_z_m, reading.p_W.z());
     readings_[i] = reading;
@@ -171,8 +166,7 @@ void ProxyLoop::ApplyCommands(double t, double dt, double held_s, ProxyReport& r
       if (channels_[i].tdpa) {
         // saturated before (what the port predicts with) and after (its brake may add
         // to it): the force held is the force rendered, as the observer counts it
-        const double max_force = caps_max_force_[i];
-        output.f_W = Saturated(end.Limit(Saturated(output.f_W, max_force), held_s), max_force);
+        output.f_W = end.LimitSaturated(output.f_W, caps_max_force_[i], held_s);
         report.tdpa_activations += end.port().active() ? 1 : 0;
       }
     }
@@ -224,6 +218,7 @@ ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
     report.overruns += timing.overran ? 1 : 0;
     const int64_t next = schedule.NextTick(tick, finished_ns);
     report.skipped_ticks += next - tick - 1;
+    after_stall_ = next - tick > 1;
     held_s = static_cast<double>(next - tick) / options_.rate_hz;
     tick = next;
     // an ended session renders nothing more: stop rather than stream into silence
@@ -242,6 +237,8 @@ ProxyReport ProxyLoop::Run(const std::atomic<bool>* stop) {
     if (kinds_[i] == DeviceKind::kImpedance) {
       report.device_energy.in += device_ends_[i].energy().in;
       report.device_energy.out += device_ends_[i].energy().out;
+      report.device_repaid_j += device_ends_[i].port().repaid();
+      report.device_owed_j += device_ends_[i].port().owed();
       report.server_end += links_[i]->server_end();
     }
     if (channels_[i].local != nullptr) report.models += channels_[i].local->counters();
@@ -306,6 +303,9 @@ ProxyReport RunLoops(std::span<ProxyLoop* const> loops, int priority, const std:
     merged.device_energy.out += r.device_energy.out;
     merged.server_end += r.server_end;
     merged.tdpa_activations += r.tdpa_activations;
+    merged.device_repaid_j += r.device_repaid_j;
+    merged.device_owed_j += r.device_owed_j;
+    merged.stall_work_j += r.stall_work_j;
     merged.states_held += r.states_held;
     merged.keepalives += r.keepalives;
     merged.dropped_samples += r.dropped_samples;

@@ -23,7 +23,11 @@
 //                    Under TDPA the force, saturated, goes through the device end's
 //                    LimitForce, its allowance the newest energy the server reported,
 //                    predicted over the last tick's length (longer after a stall: the
-//                    force is held across one, and the brake's bound m / dt with it)
+//                    force is held across one, and the brake's bound m / dt with it).
+//                    The work a force held across a stall did shows at the next sample;
+//                    what it let out beyond the server's energy the port owes, and
+//                    repays from the energy that comes in next (its brake on the
+//                    handle's motion) before any goes up to the server
 //   finished: a miss if the tick woke later than the threshold or ran past the next
 //             deadline
 //
@@ -105,6 +109,15 @@ struct ProxyReport {
   remote::PortEnergy device_energy;
   ServerEnd server_end;
   uint64_t tdpa_activations = 0;
+  // TDPA: the energy the device ends took back from the handles to repay what they had
+  // let out beyond the server's energy (a prediction short, a force held across a
+  // stall), and what they still owed at the end (the channel generated at most that and
+  // the server's own, J); and the work the held forces did on the handles across the
+  // loop's stalls (the intervals that skipped ticks, each one's positive part), which no
+  // per-tick prediction covers.
+  double device_repaid_j = 0;
+  double device_owed_j = 0;
+  double stall_work_j = 0;
   // Deadband: the states held back, and the keep-alives among those sent.
   uint64_t states_held = 0;
   uint64_t keepalives = 0;
@@ -158,6 +171,7 @@ class ProxyLoop {
   std::vector<remote::StateDeadband> deadbands_;  // per channel
   std::vector<uint8_t> sent_;  // per channel: a state went out this tick
   std::vector<uint64_t> states_held_;  // per channel: held back by its deadband
+  bool after_stall_ = false;  // the last tick skipped ticks: this sample's interval spans a stall
   LatencyStats rtt_;
   LatencyStats wire_rtt_;
   LatencyStats lateness_;

@@ -133,6 +133,7 @@ TickOutput RenderSession::Tick(const scene::SceneSnapshot& scene, const DeviceIn
   TickOutput safe;
   safe.overrun = true;
   safe.f_W = s.scale * s.safe_f_W;
+  safe.f_unscaled_W = s.safe_f_W;
   safe.avatar_W = admittance ? admittance_before.position() : proxy_before.proxy();
   safe.p_command_W = admittance ? admittance_before.position() : out.p_command_W;
   return safe;
@@ -195,6 +196,7 @@ TickOutput RenderSession::Render(const scene::SceneSnapshot& scene, const Device
   counters_.force_saturations += s.limiter.saturated();
   s.f_unscaled_W = f;
   out.f_W = scale * f;
+  out.f_unscaled_W = f;
   out.p_command_W = in.p_WD;
   out.avatar_W = avatar.avatar_W;
   out.contact = avatar.contact;

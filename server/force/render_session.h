@@ -54,6 +54,9 @@ struct TickOutput {
   int touched_object = -1;  // index in the snapshot of the object touched, or -1
   // The tick spent its work budget: the command is the last safe one (see above).
   bool overrun = false;
+  // Impedance: f_W before the watchdog's ramp (equal to it while the watchdog is fed):
+  // the force the next fresh input renders at once.
+  Vector3 f_unscaled_W = Vector3::Zero();
 };
 
 // Work units (geometry::WorkMeter) one tick may spend by default, a few hundred

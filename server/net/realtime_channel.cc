@@ -50,46 +50,36 @@ bool Impedance(const SessionSlot& slot) {
   return slot.render->settings().device.mode == force::DeviceMode::kImpedance;
 }
 
-int64_t KeepaliveNs(const SessionSlot& slot) { return std::llround(slot.deadband.keepalive_s * 1e9); }
-
 // The avatar input's step towards target_W, the device's newest position (predicted on
-// between a deadband's states): the whole way, or under TDPA as far as the server's port
-// lets it (remote::RendererEnd; the rest is the drift). Sets the input's position, and
-// under TDPA its velocity (the step over dt, which the environment's damping meets).
-// Admittance sessions and a non-finite target (the session counts and drops it) move no
-// input: the target goes to the session as it is.
+// between a deadband's states), through the session's remote::RendererChannel: the
+// whole way, or under TDPA as far as the server's port lets it (the rest is the drift).
+// Admittance sessions move no input: the target goes to the session as it is.
 Vector3 StepInput(SessionSlot& slot, const scene::SceneSnapshot& scene, const Vector3& target_W, double dt) {
   force::DeviceInput& input = slot.last_input;
-  slot.target_W = target_W;
-  if (!Impedance(slot) || !target_W.allFinite()) {
+  if (!Impedance(slot)) {
     input.p_WD = target_W;
     return Vector3::Zero();
   }
-  const Vector3 step = slot.renderer_end.Step(scene, target_W, slot.render->settings().avatar.radius, dt);
+  const Vector3 step = slot.channel.StepInput(scene, target_W, slot.render->settings().avatar.radius, dt, input);
+  // a non-finite target: the session counts and drops it, nothing stepped
+  if (!target_W.allFinite()) return step;
   SessionTelemetrySample& telemetry = slot.telemetry;
-  if (slot.tdpa) {
-    telemetry.tdpa_activations += slot.renderer_end.port().active() ? 1 : 0;
-    input.v_WD = step / dt;
-  }
-  input.p_WD = slot.renderer_end.input_W();
-  telemetry.drift_m = (target_W - input.p_WD).norm();
+  if (slot.channel.tdpa()) telemetry.tdpa_activations += slot.channel.end().port().active() ? 1 : 0;
+  telemetry.drift_m = slot.channel.drift_m();
   telemetry.max_drift_m = std::max(telemetry.max_drift_m, telemetry.drift_m);
   return step;
 }
 
 // After the session's tick: the server's port observes what its input pushed into the
-// scene over step. An input the session refused (non-finite, absurd: counted in before's
-// successors) moved nothing, so its step is taken back.
-void ObserveTick(SessionSlot& slot, const force::TickOutput& output, Vector3 step,
+// scene over step (an input the session refused, counted in before's successors, moved
+// nothing).
+void ObserveTick(SessionSlot& slot, const force::TickOutput& output, const Vector3& step,
                  const force::SessionCounters& before) {
   if (!Impedance(slot)) return;
   const force::SessionCounters& after = slot.render->counters();
-  if (after.nonfinite_inputs != before.nonfinite_inputs || after.absurd_inputs != before.absurd_inputs) {
-    slot.renderer_end.Retract(step);
-    step.setZero();
-  }
-  slot.renderer_end.Observe(output, step);
-  slot.telemetry.server_energy = slot.renderer_end.energy();
+  const bool refused = after.nonfinite_inputs != before.nonfinite_inputs || after.absurd_inputs != before.absurd_inputs;
+  slot.channel.ObserveTick(output, step, refused);
+  slot.telemetry.server_energy = slot.channel.end().energy();
 }
 
 // What the session computed, as telemetry shows it (the command's force, where the device
@@ -97,7 +87,7 @@ void ObserveTick(SessionSlot& slot, const force::TickOutput& output, Vector3 ste
 void RecordOutput(SessionSlot& slot, const force::TickOutput& output, uint64_t scene_version) {
   SessionTelemetrySample& telemetry = slot.telemetry;
   telemetry.f_W = Impedance(slot) ? output.f_W : Vector3::Zero();
-  telemetry.p_WD = slot.target_W;
+  telemetry.p_WD = slot.channel.target_W();
   telemetry.avatar_W = output.avatar_W;
   telemetry.contact = output.contact;
   telemetry.touched_object = output.touched_object;
@@ -121,14 +111,7 @@ bool FragmentDue(SessionSlot& slot, bool predicted) {
 // force), else a force out of the last one's band.
 bool OutOfBand(SessionSlot& slot, const force::TickOutput& output, bool predicted) {
   if (slot.local_model) return FragmentDue(slot, predicted);
-  return remote::ExceedsDeadband(output.f_W, slot.f_sent_W, slot.deadband.weber, slot.deadband.force_floor_n);
-}
-
-// Deadband sessions: whether a state's command goes out: the first, one whose last
-// command is a keep-alive old, or one out of band.
-bool CommandDue(SessionSlot& slot, const force::TickOutput& output, int64_t now_ns) {
-  return !slot.command_sent || now_ns - slot.command_sent_ns >= KeepaliveNs(slot) ||
-         OutOfBand(slot, output, false);
+  return slot.channel.ForceOutOfBand(output.f_W);
 }
 
 }  // namespace
@@ -324,13 +307,10 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
 
   SessionTelemetrySample& telemetry = slot.telemetry;
   // the device's end of the channel as it reports it; the state silent ticks predict on
-  slot.renderer_end.ReceiveOtherIn(state.energy_in);
+  slot.channel.ReceiveState(now_ns, state.p_WD, state.v_WD, state.energy_in);
   telemetry.device_energy = {state.energy_in, state.energy_out};
   telemetry.states_held = state.states_held;
   telemetry.keepalives += state.keepalive ? 1 : 0;
-  slot.predict_p_W = state.p_WD;
-  slot.predict_v_W = state.v_WD;
-  slot.predict_ns = now_ns;
   slot.state_sequence = state.sequence;
   slot.state_send_ns = state.send_time_ns;
 
@@ -357,7 +337,8 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
   // the answer, unless a deadband holds it back
   const uint32_t flags = output.overrun ? v1::COMMAND_FLAGS_OVERRUN : v1::COMMAND_FLAGS_NONE;
   bool queued = false;
-  if (!slot.deadband.on() || flags != v1::COMMAND_FLAGS_NONE || state.keepalive || CommandDue(slot, output, now_ns)) {
+  if (!slot.channel.deadband().on() || flags != v1::COMMAND_FLAGS_NONE || state.keepalive ||
+      slot.channel.AnswerDue(now_ns, OutOfBand(slot, output, false))) {
     queued = QueueCommand(slot, output, state.sequence, state.send_time_ns, scene.version(), flags, reply, now_ns);
   } else {
     ++telemetry.commands_held;
@@ -417,13 +398,12 @@ bool RealtimeChannel::HousekeepSession(SessionSlot& slot, SlotState state, int64
   slot.next_silent_tick_ns += slot.period_ns;
   const double dt = NsToSeconds(slot.period_ns);
   force::DeviceInput& input = slot.last_input;
-  const bool predicted =
-      slot.deadband.on() && Impedance(slot) && now_ns - slot.predict_ns <= KeepaliveNs(slot) + slot.period_ns;
+  const bool predicted = Impedance(slot) && slot.channel.Predicts(now_ns, slot.period_ns);
   input.fresh = predicted;
   Vector3 step = Vector3::Zero();
   if (predicted) {
-    input.v_WD = slot.predict_v_W;
-    step = StepInput(slot, scene, slot.predict_p_W + slot.predict_v_W * NsToSeconds(now_ns - slot.predict_ns), dt);
+    input.v_WD = slot.channel.state_v_W();
+    step = StepInput(slot, scene, slot.channel.Predict(now_ns), dt);
     ++slot.telemetry.predicted_ticks;
   }
   const force::SessionCounters before = slot.render->counters();
@@ -438,7 +418,7 @@ bool RealtimeChannel::HousekeepSession(SessionSlot& slot, SlotState state, int64
   // tell a device whose last command was already zero).
   bool queued = false;
   if (watchdog_tripped && !slot.ramp_done) {
-    const bool nothing_to_ramp = output.f_W.isZero(0) && slot.f_sent_W.isZero(0);
+    const bool nothing_to_ramp = output.f_W.isZero(0) && slot.channel.f_sent_W().isZero(0);
     queued = !nothing_to_ramp &&
              QueueCommand(slot, output, 0, 0, scene.version(), v1::COMMAND_FLAGS_WATCHDOG, reply, now_ns);
     slot.ramp_done = output.f_W.isZero(0);
@@ -469,8 +449,8 @@ bool RealtimeChannel::QueueCommand(SessionSlot& slot, const force::TickOutput& o
   command.avatar_W = output.avatar_W;
   command.contact = output.contact;
   command.flags = flags;
-  command.energy_in = slot.renderer_end.energy().in;
-  command.energy_out = slot.renderer_end.energy().out;
+  command.energy_in = slot.channel.end().energy().in;
+  command.energy_out = slot.channel.end().energy().out;
   command.commands_held = slot.telemetry.commands_held;
   command.command_number = slot.command_number + 1;
   SessionTelemetrySample& telemetry = slot.telemetry;
@@ -495,9 +475,7 @@ bool RealtimeChannel::QueueCommand(SessionSlot& slot, const force::TickOutput& o
   if (!QueueDatagram(command, slot.PreparedKey(), slot.peer, slot.peer_size, reply)) return false;
   ++telemetry.commands_sent;
   ++slot.command_number;
-  slot.f_sent_W = command.f_W;
-  slot.command_sent_ns = now_ns;
-  slot.command_sent = true;
+  slot.channel.RecordCommand(command.f_W, now_ns);
   return true;
 }
 

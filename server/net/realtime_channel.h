@@ -21,10 +21,11 @@
 //      clock and at least every 2 ms; one due within 0.75 ms runs at once after a
 //      batch of datagrams. Sessions that stream in time are never due, so their
 //      datagrams are the thread's only wake-ups.
-// The channel's two ports (remote/channel_ends.h): an impedance session's avatar input
-// steps towards the device's newest position through the server's RendererEnd (under
-// TDPA as far as its port lets it), whose energies go down with the commands; the
-// device's come up with the states. A deadband session's commands go out only as
+// The channel's server side (remote/renderer_channel.h, the code hapticd-sim's renderer
+// runs too): an impedance session's avatar input steps towards the device's newest
+// position, or a deadband's prediction of it, through its RendererEnd (under TDPA as
+// far as its port lets it), whose energies go down with the commands; the device's
+// come up with the states. A deadband session's commands go out only as
 // hapticd.v1.OpenSession.deadband says; the rest are counted as held.
 // Each session's key is prepared for tagging once (TagKey: the BLAKE2b state after the
 // key's block), on its first datagram.

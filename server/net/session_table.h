@@ -26,8 +26,7 @@
 #include "server/net/datagram_codec.h"
 #include "server/net/model_mailbox.h"
 #include "server/net/replay_window.h"
-#include "server/remote/channel_ends.h"
-#include "server/remote/deadband.h"
+#include "server/remote/renderer_channel.h"
 
 namespace hapticd::net {
 
@@ -113,9 +112,6 @@ struct SessionSlot {
   // thread cuts into `models`: made for the first such session the slot holds and kept.
   bool local_model = false;
   std::unique_ptr<ModelMailbox> models;
-  // The channel: two-port passivity and the deadband (OpenSession.tdpa, .deadband...).
-  bool tdpa = false;
-  remote::DeadbandSettings deadband;
   // ----
   ReplayWindow replay;
   sockaddr_storage peer{};
@@ -129,20 +125,13 @@ struct SessionSlot {
   uint64_t sending_version = 0;  // the model whose fragments go out in turn
   uint32_t next_fragment = 0;
   uint32_t fragments_sent = 0;  // of sending_version, so far
-  // The server's end of the channel (impedance sessions), and the device's newest
-  // position it steps the avatar input towards.
-  remote::RendererEnd renderer_end{false};
-  Vector3 target_W = Vector3::Zero();
-  // Deadband: the last state, which silent ticks predict on (position and velocity as it
-  // came, when, its sequence and send stamp), and the last command sent.
-  Vector3 predict_p_W = Vector3::Zero();
-  Vector3 predict_v_W = Vector3::Zero();
-  int64_t predict_ns = 0;
+  // The server's side of the channel (impedance sessions; OpenSession.tdpa, .deadband...):
+  // its end of two-port passivity, the avatar input it steps towards the device's newest
+  // position, the last state (which silent ticks predict on) and the last command sent;
+  // the last state's sequence and send stamp (a predicted command's).
+  remote::RendererChannel channel;
   uint64_t state_sequence = 0;
   uint64_t state_send_ns = 0;
-  Vector3 f_sent_W = Vector3::Zero();
-  int64_t command_sent_ns = 0;
-  bool command_sent = false;  // any yet
   uint64_t command_number = 0;  // commands queued so far
   SessionTelemetrySample telemetry;  // the realtime thread's working copy
   SeqLocked<SessionTelemetrySample> published;

@@ -37,7 +37,9 @@ EnvironmentNear FindEnvironmentNear(const scene::SceneSnapshot& scene, const Vec
     object = contact.object;
     at_W = contact.point_W;
     near.normal_W = contact.normal_W;
-    near.gap = std::max(-contact.depth, 0.0);
+    // inside already (a force the watchdog's ramp took away, a penalty input): the
+    // spring pressed that deep
+    near.gap = contact.object >= 0 ? -contact.depth : 0.0;
   } else {
     near.normal_W = f_env_W.normalized();
   }
@@ -77,7 +79,8 @@ void RendererEnd::Observe(const force::TickOutput& output, const Vector3& step) 
 }
 
 void RendererEnd::Remember(const force::TickOutput& output) {
-  f_env_W_ = output.f_W;
+  // the force as the next fresh input renders it: before the watchdog's ramp
+  f_env_W_ = output.f_unscaled_W;
   touched_ = output.touched_object;
   avatar_W_ = output.avatar_W;
 }

@@ -21,6 +21,13 @@
 
 namespace hapticd::remote {
 
+// A force as a device renders it: saturated at max_force (N), zero when not finite.
+inline Vector3 SaturateForce(const Vector3& f_W, double max_force) {
+  if (!f_W.allFinite()) return Vector3::Zero();
+  const double norm = f_W.norm();
+  return norm > max_force ? Vector3(f_W * (max_force / norm)) : f_W;
+}
+
 // The device's end. mass: kg, > 0 (the handle's, the least a change of force moves).
 class DeviceEnd {
  public:
@@ -37,6 +44,13 @@ class DeviceEnd {
   // The force to hold over the coming tick of dt s, for f_W (already saturated to what
   // the device renders): itself without control, else through the port's LimitForce.
   Vector3 Limit(const Vector3& f_W, double dt) { return port_.LimitForce(f_W, v_mid_W_, dt); }
+  // The force a device whose limit is max_force (N, > 0) holds over the coming tick of
+  // dt s for the force f_W it was asked for: saturated (a non-finite one: zero), through
+  // Limit, and saturated again (the brake may add to it), so that the force held is the
+  // force rendered, as the observer counts it. hapticd-proxy and hapticd-sim both hold this.
+  Vector3 LimitSaturated(const Vector3& f_W, double max_force, double dt) {
+    return SaturateForce(Limit(SaturateForce(f_W, max_force), dt), max_force);
+  }
 
   const ChannelPort& port() const { return port_; }
   const PortEnergy& energy() const { return port_.energy(); }

@@ -10,13 +10,24 @@ ChannelPort::ChannelPort(bool control, double mass) : control_(control), mass_(m
 void ChannelPort::Reset() {
   energy_ = {};
   other_in_ = 0;
+  repaid_ = 0;
   f_last_W_.setZero();
   active_ = false;
 }
 
 void ChannelPort::Observe(double work) {
   if (!std::isfinite(work)) return;
-  (work > 0 ? energy_.out : energy_.in) += std::abs(work);
+  if (work > 0) {
+    energy_.out += work;
+    return;
+  }
+  // energy in: first what this end owes (kept in the channel), the rest passed on;
+  // without control nothing is limited and nothing owed, the observer only counts
+  const double entered = -work;
+  const double repay = control_ ? std::min(entered, owed()) : 0.0;
+  energy_.out -= repay;
+  repaid_ += repay;
+  energy_.in += entered - repay;
 }
 
 void ChannelPort::ReceiveOtherIn(double other_in) {
@@ -75,19 +86,33 @@ Vector3 ChannelPort::LimitStep(const Vector3& step, const EnvironmentNear& near,
   // a moving surface closes the gap by itself (and presses a touching avatar)
   const double approach = std::max(near.approach, 0.0);
   const double gap = touching ? -approach : near.gap - kClearance - approach;
-  if (!(into > 0) || (!touching && into < gap)) return step;  // away, or not reaching it
   // The work the observer will count: the force at the step's end (the spring pressed
-  // a - gap further, the damper at the step's speed a / dt) times the step a:
-  //   W(a) = (force + k (a - gap) + b a / dt) a = K a^2 + (force - k gap) a,
-  // K = k + b / dt, for a past the gap (negative: the surface presses on by itself).
+  // a - gap further, the damper at the step's speed and the surface's, (a + approach) / dt)
+  // times the step a:
+  //   W(a) = (force + k (a - gap) + b (a + approach) / dt) a = K a^2 + linear a,
+  // K = k + b / dt, linear = force - k gap + b approach / dt (negative gap: the input
+  // is inside already, pressed by the spring; a < 0 backs out, W < 0 then takes energy in).
   const double k = near.stiffness;
-  const double big_k = k + std::max(near.damping, 0.0) / dt;
-  const double linear = force - k * gap;
-  const double allowed = std::max(available(), 0.0);
-  if (big_k * into * into + linear * into <= allowed) return step;
+  const double b = std::max(near.damping, 0.0);
+  const double big_k = k + b / dt;
+  const double linear = force - k * gap + b * approach / dt;
+  const double allowed = available();
+  // Owing: back out of a pushing environment (linear > 0) just far enough that its push
+  // repays the debt, W(-back) = K back^2 - linear back = allowed < 0 (the smaller root),
+  // or, when no step does, as far as takes the most (back = linear / 2K, W = -linear^2 / 4K).
+  if (allowed < 0 && big_k > 0 && linear > 0) {
+    const double discriminant = linear * linear + 4 * big_k * allowed;
+    const double back = discriminant > 0 ? (linear - std::sqrt(discriminant)) / (2 * big_k) : linear / (2 * big_k);
+    if (into <= -back) return step;  // backs out at least as far already
+    active_ = true;
+    return step + (into + back) * n;
+  }
+  if (!(into > 0) || (!touching && into < gap)) return step;  // away, or not reaching it
+  const double kept_allowed = std::max(allowed, 0.0);
+  if (big_k * into * into + linear * into <= kept_allowed) return step;
   active_ = true;
   // the larger root of K a^2 + linear a - allowed (K > 0: a surface is there)
-  double kept = big_k > 0 ? (-linear + std::sqrt(linear * linear + 4 * big_k * allowed)) / (2 * big_k) : 0.0;
+  double kept = big_k > 0 ? (-linear + std::sqrt(linear * linear + 4 * big_k * kept_allowed)) / (2 * big_k) : 0.0;
   kept = std::max(kept, std::max(gap, 0.0));
   kept = std::clamp(kept, 0.0, into);
   return step + (into - kept) * n;

@@ -4,6 +4,8 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "server/query/scene_queries.h"
@@ -11,6 +13,7 @@
 #include "server/sim/sim_device.h"
 #include "server/remote/deadband.h"
 #include "server/remote/channel_ends.h"
+#include "server/remote/renderer_channel.h"
 
 namespace hapticd::sim {
 namespace {
@@ -109,12 +112,21 @@ SimSummary Simulator::Run(const TraceSink& trace) {
   force::DeviceInput input;  // the renderer's newest device state
   input.p_WD = scenario_.device.start_W;
 
-  // the two ends of the channel (remote/two_port_passivity.h)
+  // The channel's two sides as hapticd-proxy (device) and hapticd (renderer) run them:
+  // two-port passivity's ends (remote/two_port_passivity.h), the renderer's side of the
+  // session (remote/renderer_channel.h) and the device's state deadband, with the
+  // deadband's default floors and no keep-alive: FORMAT.md's `remote.deadband` has each
+  // side send only what leaves its band (the renderer predicts until the next state).
+  remote::DeadbandSettings deadband;
+  deadband.weber = weber;
+  deadband.keepalive_s = std::numeric_limits<double>::infinity();
+  const int64_t period_ns = std::llround(1e9 / rate_hz);
   remote::DeviceEnd device_end(remote.tdpa, scenario_.device.mass);
   device_end.Reset(scenario_.device.start_W);
-  remote::RendererEnd renderer_end(remote.tdpa);
-  renderer_end.Reset(scenario_.device.start_W);
-  remote::StateDeadband state_deadband(weber);
+  remote::RendererChannel channel(remote.tdpa, deadband);
+  channel.Reset(scenario_.device.start_W);
+  remote::RendererEnd& renderer_end = channel.end();
+  remote::StateDeadband state_deadband(deadband);
   std::optional<remote::LocalRenderer> local_renderer;
   if (local) {
     local_renderer.emplace(scenario_.session);
@@ -136,13 +148,11 @@ SimSummary Simulator::Run(const TraceSink& trace) {
   DeviceCommand held;                           // the newest command (direct)
   bool has_command = false;
   // renderer end
-  Vector3 received_W = scenario_.device.start_W;  // the newest state's position (predicted)
-  Vector3 received_v_W = Vector3::Zero();
-  int64_t received_tick = 0;
+  Vector3 target_W = scenario_.device.start_W;  // the newest state's position (predicted)
   Vector3 device_avatar_W = scenario_.device.start_W;  // local_model: the device's proxy, as it last said
   Vector3 last_pose_W = scenario_.device.start_W;   // admittance: the last pose commanded
-  DeviceCommand sent;                               // the last command sent (deadband)
-  bool sent_any = false;
+  Vector3 pose_sent_W = Vector3::Zero();            // admittance: the last pose sent (deadband)
+  bool pose_sent = false;
   std::shared_ptr<const remote::LocalModel> model;  // the last model cut
   std::vector<int64_t> model_tick = {0};            // tick each version was sent, by version
   uint64_t acked_version = 0;
@@ -169,9 +179,9 @@ SimSummary Simulator::Run(const TraceSink& trace) {
   // The device holds a force (impedance) or follows a pose, through its port.
   auto render = [&](const DeviceCommand& command) {
     if (admittance || !remote.tdpa) return device.Accept(command);
-    // the port limits what the device can render: the force saturated first
+    // the port limits what the device can render, as hapticd-proxy's does
     DeviceCommand limited = command;
-    limited.f_W = device_end.Limit(device.Saturate(command.f_W), dt);
+    limited.f_W = device_end.LimitSaturated(command.f_W, scenario_.session.device.max_force, dt);
     summary.tdpa_device_activations += device_end.port().active() ? 1 : 0;
     device.Accept(limited);
   };
@@ -198,23 +208,30 @@ SimSummary Simulator::Run(const TraceSink& trace) {
       state.model_version = local_renderer->model_version();
     }
 
-    // device: send up (the deadband may hold it back)
+    // device: send up (the deadband may hold it back; no keep-alive, as above)
     state.energy_in = device_end.energy().in;
-    if (state_deadband.Offer(t, state.p_W, state.v_W)) up.Send(k, state);
+    if (state_deadband.OfferWithKeepalive(t, state.p_W, state.v_W, deadband.keepalive_s, dt) !=
+        remote::StateVerdict::kHold) {
+      up.Send(k, state);
+    }
 
-    // renderer: the newest state that has arrived, else the last one (predicted on
-    // under a deadband), not fresh
+    // renderer: the newest state that has arrived (fresh); else, under a deadband, the
+    // last one predicted on at its velocity (fresh too: the device sends none while
+    // nothing leaves its band); else the last one, not fresh (the session's watchdog
+    // counts the silence). Its input steps only on ticks it renders a state or a
+    // prediction, so its port observes only steps the session takes.
+    const int64_t t_ns = k * period_ns;
     input.fresh = false;
+    bool stepped = false;
+    bool predicted = false;
     if (const std::optional<DeviceState> arrived = up.Receive(k)) {
-      input.fresh = true;
-      received_W = arrived->p_W;
-      received_v_W = arrived->v_W;
-      received_tick = k;
+      input.fresh = stepped = true;
+      target_W = arrived->p_W;
       device_avatar_W = arrived->avatar_W;
       input.v_WD = arrived->v_W;
       input.f_held_W = arrived->f_held_W;
       input.f_sensed_W = arrived->f_sensed_W;
-      renderer_end.ReceiveOtherIn(arrived->energy_in);
+      channel.ReceiveState(t_ns, arrived->p_W, arrived->v_W, arrived->energy_in);
       // a model's round trip: from its sending to the first state that renders it
       if (arrived->model_version > acked_version && arrived->model_version < model_tick.size()) {
         acked_version = arrived->model_version;
@@ -224,17 +241,23 @@ SimSummary Simulator::Run(const TraceSink& trace) {
       }
     } else {
       ++summary.ticks_without_input;
+      if (channel.Predicts(t_ns, period_ns)) {
+        input.fresh = stepped = predicted = true;
+        target_W = channel.Predict(t_ns);
+        input.v_WD = channel.state_v_W();
+      }
     }
-    const Vector3 target_W =
-        weber > 0 ? Vector3(received_W + received_v_W * (static_cast<double>(k - received_tick) * dt)) : received_W;
-    // the avatar input steps towards it (through the renderer's port under tdpa)
-    const Vector3 step = renderer_end.Step(*snapshot_, target_W, radius, dt);
-    if (remote.tdpa) {
-      summary.tdpa_renderer_activations += renderer_end.port().active() ? 1 : 0;
-      input.v_WD = step / dt;  // the avatar input's own motion, which its damping meets
+    // the avatar input steps towards the target (through the renderer's port under
+    // tdpa); an admittance session's input is the sensed force
+    Vector3 step = Vector3::Zero();
+    if (stepped && !admittance) {
+      step = channel.StepInput(*snapshot_, target_W, radius, dt, input);
+      summary.tdpa_renderer_activations += remote.tdpa && renderer_end.port().active() ? 1 : 0;
+    } else if (stepped) {
+      input.p_WD = target_W;
     }
-    summary.max_drift_m = std::max(summary.max_drift_m, (target_W - renderer_end.input_W()).norm());
-    input.p_WD = renderer_end.input_W();
+    if (!admittance) summary.max_drift_m = std::max(summary.max_drift_m, channel.drift_m());
+    const force::SessionCounters before = session_.counters();
     const force::TickOutput output = session_.Tick(*snapshot_, input, dt);
     // the renderer's port: what its input pushed into the environment
     if (admittance) {
@@ -242,7 +265,9 @@ SimSummary Simulator::Run(const TraceSink& trace) {
       renderer_end.Remember(output);
       last_pose_W = output.p_command_W;
     } else {
-      renderer_end.Observe(output, step);
+      const force::SessionCounters& after = session_.counters();
+      channel.ObserveTick(output, step,
+                          after.nonfinite_inputs != before.nonfinite_inputs || after.absurd_inputs != before.absurd_inputs);
     }
 
     // renderer: send down
@@ -263,12 +288,21 @@ SimSummary Simulator::Run(const TraceSink& trace) {
         down.Send(k, command);
       }
     } else {
-      const bool changed = admittance ? (command.p_W - sent.p_W).norm() > remote::kPositionFloorM
-                                      : remote::ExceedsDeadband(command.f_W, sent.f_W, weber, remote::kForceFloorN);
-      if (weber == 0 || !sent_any || changed) {
+      // without a deadband every tick sends; with one, as hapticd answers: a state's
+      // answer when it is the first or its force leaves the band, a prediction's when
+      // its force does (an admittance pose when it moves past the position floor)
+      bool send = weber == 0;
+      if (!send && admittance) {
+        send = !pose_sent || (command.p_W - pose_sent_W).norm() > remote::kPositionFloorM;
+      } else if (!send && stepped) {
+        const bool out_of_band = channel.ForceOutOfBand(command.f_W);
+        send = predicted ? out_of_band : channel.AnswerDue(t_ns, out_of_band);
+      }
+      if (send) {
         down.Send(k, command);
-        sent = command;
-        sent_any = true;
+        channel.RecordCommand(command.f_W, t_ns);
+        pose_sent_W = command.p_W;
+        pose_sent = true;
       }
       // device: the newest command that has arrived
       if (const std::optional<DeviceCommand> arrived = down.Receive(k)) {

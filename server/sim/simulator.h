@@ -36,17 +36,25 @@
 // - Kinematic objects (the "motion" extension) move at their constant velocity: after
 //   each tick their poses are set to the exact pose at t_k+1 with
 //   SceneBuilder::MoveKinematic and a new snapshot is built, as a client's edit would.
-// - Remote (FORMAT.md's `remote`; server/remote/): the messages each way carry, besides
-//   the state or the command, the sender's channel energy `in` (two_port_passivity.h),
-//   and the state carries the device's proxy and the version of the model it renders.
-//   The device's port observes F_k-1 . (q_k - q_k-1) at each sample (sensed positions;
-//   admittance: -f_sensed over the move), the renderer's port -F . (its avatar input's
-//   step) after each tick; channel_energy_j is the two ports' out - in, summed.
-//   * direct: as above. With tdpa the renderer's input steps towards the newest state
-//     through its port's LimitStep (the environment: its last force, the nearest
-//     surface and that object's stiffness), and the device holds, each tick, the
-//     newest command through its port's LimitForce at the velocity extrapolated to the
-//     middle of the tick (v_k + (v_k - v_k-1) / 2).
+// - Remote (FORMAT.md's `remote`; server/remote/): the channel's two sides are the code
+//   hapticd-proxy (remote::DeviceEnd, StateDeadband) and hapticd's realtime thread
+//   (remote::RendererChannel) run. The messages each way carry, besides the state or
+//   the command, the sender's channel energy `in` (two_port_passivity.h), and the state
+//   carries the device's proxy and the version of the model it renders. The device's
+//   port observes F_k-1 . (q_k - q_k-1) at each sample (sensed positions; admittance:
+//   -f_sensed over the move), the renderer's port -F . (its avatar input's step) after
+//   each tick; channel_energy_j is the two ports' out - in, summed.
+//   * The renderer's session renders, each tick, the newest state that arrived (fresh);
+//     else, under a deadband, the last state predicted on at its velocity (fresh too:
+//     the device sends nothing while nothing leaves its band); else the last state, not
+//     fresh (its watchdog counts the silence). Its avatar input steps only on the ticks
+//     it renders a state or a prediction, so its port observes only steps it takes.
+//   * direct: as above. With tdpa the renderer's input steps towards the target
+//     through its port's LimitStep (the environment: its last force before the
+//     watchdog's ramp, the nearest surface and that object's stiffness), and the device
+//     holds, each tick, the newest command through its port's LimitForce at the
+//     velocity extrapolated to the middle of the tick (v_k + (v_k - v_k-1) / 2),
+//     saturated (DeviceEnd::LimitSaturated).
 //   * local_model: each tick the device first takes the newest model that arrived
 //     (remote::LocalRenderer::Accept), renders from it with its sample (no delay), and
 //     sends its state up; the renderer runs its own session on the states as they
@@ -59,14 +67,16 @@
 //     the device renders it (before any: kInitialRoundTripS). The session opens with a
 //     model cut about the start (version 1, as over the control channel before the
 //     first tick: not in packets_down).
-//   * deadband w > 0: a state goes up only when remote::StateDeadband offers it (the
-//     renderer predicts in between: the last position received moved on at the last
-//     velocity, per tick since it arrived); a direct command only when its force
-//     leaves the force deadband (w |F_sent| + kForceFloorN; a pose: kPositionFloorM);
-//     a model only when the device's proxy has left the middle w R of the last model
-//     sent or its reach has outgrown (1 - w) R, its radius R being the reach above
-//     (with no interval) / (1 - w). Without
-//     deadband every tick sends, a model too.
+//   * deadband w > 0, with the default floors and no keep-alive (FORMAT.md: each side
+//     sends only what leaves its band; hapticd-proxy and hapticd add a keep-alive over
+//     UDP to tell a quiet peer from a lost one): a state goes up only when
+//     remote::StateDeadband offers it; a direct command goes down as hapticd sends one:
+//     for a state, the first or one whose force leaves the force deadband
+//     (w |F_sent| + kForceFloorN); for a prediction, one whose force leaves it (an
+//     admittance pose: when it moves past kPositionFloorM); a model only when the
+//     device's proxy has left the middle w R of the last model sent or its reach has
+//     outgrown (1 - w) R, its radius R being the reach above (with no interval) /
+//     (1 - w). Without deadband every tick sends, a model too.
 // - Measures at every sample x_k (and the final x_ticks), true positions throughout:
 //   max_penetration_m = max(0, depth of the device point in the deepest object);
 //   max_avatar_penetration_m the same for a sphere of the avatar's radius at the device

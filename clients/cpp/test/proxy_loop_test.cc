@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
@@ -309,6 +310,77 @@ TEST(ProxyLoop, UnderTdpaTheForceWaitsForTheServersEnergy) {
   EXPECT_EQ(device.last_output().f_W, Vector3(0, 0, 3));
   EXPECT_EQ(report.server_end.energy_in, 1.0);
   EXPECT_EQ(static_cast<uint64_t>(energies_reported.load()), link.counters().sent);
+}
+
+// A free handle (0.05 kg, no hand) pushed only by the force the device renders, whose
+// Read stalls the loop once for 40 ms (the machine's load, a page fault): the force held
+// across the stall does far more work than any tick's prediction allowed.
+class StallingDriver final : public DeviceDriver {
+ public:
+  static constexpr double kMass = 0.05;
+  explicit StallingDriver(int stall_at) : stall_at_(stall_at) {}
+  DeviceCaps caps() const override { return HeldCaps(); }
+  DeviceReading Read(double t) override {
+    if (reads_++ == stall_at_) std::this_thread::sleep_for(std::chrono::milliseconds(40));
+    // the force applied since the last read, held: exact for a constant force
+    const double dt = t - t_;
+    const Vector3 a = f_ / kMass;
+    p_ += v_ * dt + 0.5 * a * dt * dt;
+    v_ += a * dt;
+    t_ = t;
+    DeviceReading reading;
+    reading.p_W = p_;
+    reading.v_W = v_;
+    return reading;
+  }
+  void Apply(const DeviceOutput& output) override { f_ = output.f_W; }
+
+ private:
+  int stall_at_;
+  int reads_ = 0;
+  double t_ = 0;
+  Vector3 p_ = HeldCaps().start_W;
+  Vector3 v_ = Vector3::Zero();
+  Vector3 f_ = Vector3::Zero();
+};
+
+// The skipped test of tests/test_e2e_remote_channel.py, made certain: under TDPA a force
+// held across a stall of the loop lets out far more than the server's energy allowed
+// (the port predicts each tick over the last tick's length). The device's end observes
+// it at the next sample, owes the excess, and its brake takes it back from the handle's
+// motion on the ticks after, none of it passed up as energy in: by the end of the run
+// the channel has generated nothing, and the report says what the stall did. (The
+// server asks for no force after its first 50 answers, so a stall of this loaded
+// machine's own late in the run holds no force.)
+TEST(ProxyLoop, UnderTdpaAForceHeldAcrossAStallIsTakenBackAfterIt) {
+  constexpr double kAllowed = 2e-3;  // J: what the server reports it let in
+  Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
+    thread_local net::DatagramCodec codec;
+    net::DeviceStateSample state;
+    if (!net::CheckTag(in, TestKey()) || codec.ParseState(in, state) != net::DatagramError::kNone) return 0;
+    net::DeviceCommandSample command;
+    command.session_id = kSession;
+    command.sequence = state.sequence;
+    command.echo_send_time_ns = state.send_time_ns;
+    command.f_W = Vector3(0, 0, state.sequence <= 50 ? 3 : 0);
+    command.energy_in = kAllowed;
+    return codec.EncodeCommand(command, TestKey(), out);
+  });
+  StallingDriver device(3);
+  RealtimeLink link(kSession, TestKey(), server.endpoint());
+  ProxyChannel channel{&device, &link};
+  channel.tdpa = true;
+  ProxyLoop loop(ShortRun(0.3), {channel});
+  const ProxyReport report = loop.Run();
+  ASSERT_GT(report.skipped_ticks, 20);
+  EXPECT_EQ(report.server_end.energy_in, kAllowed);
+  // the stall: the held force pushed the handle far beyond the allowance
+  EXPECT_GT(report.stall_work_j, 10 * kAllowed);
+  // taken back after it, and nothing owed at the end
+  EXPECT_GT(report.device_repaid_j, report.stall_work_j - kAllowed);
+  EXPECT_EQ(report.device_owed_j, 0);
+  EXPECT_LE(report.device_energy.out, report.server_end.energy_in + 1e-12);
+  EXPECT_LE(report.channel_energy_j(), 1e-12);
 }
 
 // A deadband on a handle at rest: the first state and then a keep-alive every 10 ms go

@@ -200,7 +200,10 @@ TEST(Watchdog, ForceRampsToZeroWhenSamplesStop) {
   input.fresh = false;
   double previous = pressing;
   for (int tick = 1; tick <= 40; ++tick) {
-    const double f = session.Tick(*scene, input, 0.001).f_W.z();
+    const TickOutput output = session.Tick(*scene, input, 0.001);
+    const double f = output.f_W.z();
+    // before the ramp, the force a fresh sample would bring back at once
+    EXPECT_NEAR(output.f_unscaled_W.z(), 2.0, 1e-5);
     if (tick <= 10) {
       EXPECT_NEAR(f, 2.0, 1e-5);
     }

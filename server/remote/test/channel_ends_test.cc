@@ -28,10 +28,12 @@ std::shared_ptr<const scene::SceneSnapshot> BoxScene() {
   return builder.Build(1);
 }
 
-// A penalty-like environment answer: the spring's force at the input's depth.
+// A penalty-like environment answer: the spring's force at the input's depth (the
+// watchdog fed: no ramp).
 force::TickOutput Spring(const Vector3& p_W) {
   force::TickOutput output;
   output.f_W = Vector3(0, 0, std::max(0.0, -p_W.z()) * kStiffness);
+  output.f_unscaled_W = output.f_W;
   output.touched_object = p_W.z() < 0 ? 0 : -1;
   output.avatar_W = Vector3(p_W.x(), p_W.y(), std::max(0.0, p_W.z()));
   output.contact = p_W.z() < 0;
@@ -71,6 +73,73 @@ TEST(DeviceEndTest, UnderControlItLimitsAtTheVelocityExtrapolatedToMidTick) {
   EXPECT_EQ(end.Limit(Vector3(0, 0, -5), kDt), Vector3(0, 0, -5));
 }
 
+// The rising plate's leak (direct + TDPA at 0.5 m/s, up to +68 uJ): the hand jerks the
+// handle along the force within a tick, beyond what the port predicted from its
+// velocity, so more leaves than was allowed. The brake then takes the excess back from
+// the handle's motion, and none of what it takes is passed on to the renderer: the
+// channel (the renderer end letting out all it is told came in) ends at or below zero.
+TEST(DeviceEndTest, AnOvershootIsRepaidByTheBrakeBeforeAnythingIsPassedOn) {
+  constexpr double kMass = 0.05;
+  DeviceEnd end(true, kMass);
+  end.Reset(Vector3::Zero());
+  end.ReceiveOtherIn(1e-3);  // what the renderer let in
+  Vector3 p = Vector3::Zero(), v(0, 0, 0.4), f_held = Vector3::Zero();
+  double largest_owed = 0;
+  for (int k = 0; k < 40; ++k) {
+    end.Sample(p, v, f_held);
+    largest_owed = std::max(largest_owed, end.port().owed());
+    f_held = end.Limit(Vector3(0, 0, 4), kDt);  // 4 N along the motion
+    // the hand: a sudden 60 N upwards in the first tick, which spends the allowance
+    const Vector3 hand(0, 0, k == 0 ? 60.0 : 0.0);
+    const Vector3 v_next = v + (hand + f_held) / kMass * kDt;
+    p += 0.5 * (v + v_next) * kDt;
+    v = v_next;
+  }
+  end.Sample(p, v, f_held);
+  EXPECT_GT(largest_owed, 1e-5);  // the prediction did fall short
+  EXPECT_EQ(end.port().owed(), 0);
+  EXPECT_GT(end.port().repaid(), 1e-5);
+  const double channel = (end.energy().out - end.energy().in) + (end.energy().in - end.port().other_in());
+  EXPECT_LE(channel, 1e-15);
+}
+
+// A force held across a stall of the device's loop (40 ticks): the sample after it
+// observes the held force's work over the whole displacement, far beyond the allowance;
+// the port owes it and its brake takes it back from the handle's motion on the next
+// ticks (saturated at the device's 10 N), passing none of it on.
+TEST(DeviceEndTest, AForceHeldAcrossAStallIsObservedAndTakenBack) {
+  constexpr double kMass = 0.05, kMaxForce = 10;
+  DeviceEnd end(true, kMass);
+  end.Reset(Vector3::Zero());
+  end.ReceiveOtherIn(2e-3);
+  Vector3 p = Vector3::Zero(), v = Vector3::Zero(), f_held = Vector3::Zero();
+  // a free handle under the force held for ticks ticks
+  const auto hold = [&](int ticks) {
+    const double t = ticks * kDt;
+    p += v * t + 0.5 * f_held / kMass * t * t;
+    v += f_held / kMass * t;
+  };
+  end.Sample(p, v, f_held);
+  f_held = end.LimitSaturated(Vector3(0, 0, 3), kMaxForce, kDt);
+  EXPECT_EQ(f_held, Vector3(0, 0, 3));  // at rest, 3 N fits in a tick
+  hold(40);
+  end.Sample(p, v, f_held);
+  const double stall_work = f_held.z() * p.z();
+  EXPECT_NEAR(end.energy().out, stall_work, 1e-15);
+  EXPECT_NEAR(end.port().owed(), stall_work - 2e-3, 1e-15);
+  int ticks = 0;
+  for (; ticks < 100 && end.port().owed() > 0; ++ticks) {
+    f_held = end.LimitSaturated(Vector3(0, 0, 3), kMaxForce, kDt);
+    EXPECT_LT(f_held.z(), 0) << ticks;  // braking
+    hold(1);
+    end.Sample(p, v, f_held);
+  }
+  EXPECT_EQ(end.port().owed(), 0);
+  EXPECT_LT(ticks, 100);
+  EXPECT_NEAR(end.port().repaid(), stall_work - 2e-3, 1e-12);
+  EXPECT_LE(end.energy().out, end.port().other_in() + 1e-15);
+}
+
 TEST(RendererEndTest, WithoutControlTheInputGoesAllTheWayAndTheWorkIsObserved) {
   const auto scene = BoxScene();
   RendererEnd end(false);
@@ -104,6 +173,73 @@ TEST(RendererEndTest, UnderControlTheInputStopsAtTheSurfaceAndCatchesUpWhenEnerg
     step = end.Step(*scene, target, 0, kDt);
     end.Observe(Spring(end.input_W()), step);
     EXPECT_LE(end.energy().out, end.port().other_in() + 1e-12) << k;
+  }
+  EXPECT_NEAR(end.input_W().z(), target.z(), 1e-12);
+}
+
+// The edge's leak with a deadband (direct + TDPA, up to +1.1 mJ): the renderer's
+// watchdog ramped its force away while the avatar input sat 2 mm in the box; the next
+// fresh state restored the full spring, and the step towards it was predicted from the
+// ramped (zero) force. The port predicts from the force before the ramp.
+TEST(RendererEndTest, AForceTheWatchdogRampedAwayIsPredictedAtFullStrength) {
+  const auto scene = BoxScene();
+  for (const double scale : {0.0, 0.3}) {
+    RendererEnd end(true);
+    const Vector3 inside(0, 0, -0.002);
+    end.Reset(inside);
+    force::TickOutput ramped = Spring(inside);
+    ramped.f_unscaled_W = ramped.f_W;  // 4 N
+    ramped.f_W *= scale;
+    end.Remember(ramped);
+    end.ReceiveOtherIn(1e-4);
+    const Vector3 step = end.Step(*scene, Vector3(0, 0, -0.004), 0, kDt);
+    end.Observe(Spring(end.input_W()), step);  // fresh: the spring at full strength
+    EXPECT_TRUE(end.port().active()) << scale;
+    EXPECT_LE(end.energy().out, end.port().other_in() + 1e-15) << scale;
+    EXPECT_GT(end.energy().out, 0.9 * end.port().other_in()) << scale;  // and it used what it had
+  }
+}
+
+TEST(RendererEndTest, AnInputInsideWithNoForceIsPressedByTheSpringAlready) {
+  const auto scene = BoxScene();
+  // no force (a fresh session, an index from an older scene): the surface nearest the
+  // input, 1 mm above it, is pressing it already
+  const EnvironmentNear near =
+      FindEnvironmentNear(*scene, Vector3::Zero(), -1, Vector3::Zero(), Vector3(0, 0, -0.001), 0, Vector3(0, 0, -1e-3),
+                          kDt);
+  EXPECT_EQ(near.stiffness, kStiffness);
+  EXPECT_NEAR(near.gap, -0.001, 1e-12);
+  EXPECT_EQ(near.normal_W, Vector3::UnitZ());
+  RendererEnd end(true);
+  end.Reset(Vector3(0, 0, -0.001));
+  end.ReceiveOtherIn(1e-4);
+  const Vector3 step = end.Step(*scene, Vector3(0, 0, -0.003), 0, kDt);
+  end.Observe(Spring(end.input_W()), step);
+  EXPECT_LE(end.energy().out, end.port().other_in() + 1e-15);
+}
+
+// A renderer end that owes (here: told it let out 0.5 mJ more than came in) backs the
+// input out of the box until the spring's push has repaid it, and catches up again
+// once energy comes; nothing of the repayment is passed on to the device.
+TEST(RendererEndTest, OwingItBacksOutUntilTheSpringRepays) {
+  const auto scene = BoxScene();
+  RendererEnd end(true);
+  const Vector3 target(0, 0, -0.002);
+  end.Reset(target);
+  end.Remember(Spring(target));
+  end.port().Observe(5e-4);
+  for (int k = 0; k < 5 && end.port().owed() > 0; ++k) {
+    const Vector3 step = end.Step(*scene, target, 0, kDt);
+    EXPECT_GT(step.z(), 0) << k;
+    end.Observe(Spring(end.input_W()), step);
+  }
+  EXPECT_NEAR(end.port().owed(), 0, 1e-15);
+  EXPECT_NEAR(end.energy().in, 0, 1e-15);
+  EXPECT_GT(end.input_W().z(), target.z());
+  end.ReceiveOtherIn(0.01);
+  for (int k = 0; k < 100 && (target - end.input_W()).norm() > 1e-12; ++k) {
+    const Vector3 step = end.Step(*scene, target, 0, kDt);
+    end.Observe(Spring(end.input_W()), step);
   }
   EXPECT_NEAR(end.input_W().z(), target.z(), 1e-12);
 }
@@ -189,7 +325,7 @@ TEST(ChannelEndsTest, TheirTicksAllocateNothing) {
     const Vector3 p(0, 0, 0.002 - 2e-5 * k);
     device.Sample(p, Vector3(0, 0, -0.02), Vector3(0, 0, 1));
     device.ReceiveOtherIn(1e-3 * k);
-    const Vector3 f = device.Limit(Vector3(0, 0, 2), kDt);
+    const Vector3 f = device.LimitSaturated(Vector3(0, 0, 2), 8, kDt);
     renderer.ReceiveOtherIn(1e-3 * k);
     const Vector3 step = renderer.Step(*scene, p, 0, kDt);
     renderer.Observe(Spring(renderer.input_W()), step);
