@@ -126,18 +126,25 @@ run() {
   run_name="$name"
   run_relay_out="$(mktemp)"
   run_relay_pid=""
-  run_command_pid=""
   # shellcheck disable=SC2317  # called by the trap
   teardown() {
-    if [[ -n "$run_command_pid" ]]; then
-      kill -TERM "$run_command_pid" 2>/dev/null || true
-      wait "$run_command_pid" 2>/dev/null || true
+    # every background job: a signal can come between starting one (cmd &) and
+    # keeping its pid ($!), and a command left running would hold the caller's pipes.
+    # The command first, then the relay, whose summary comes last.
+    local pid others=()
+    for pid in $(jobs -p); do
+      [[ "$pid" == "$run_relay_pid" ]] || others+=("$pid")
+    done
+    if ((${#others[@]})); then
+      kill -TERM "${others[@]}" 2>/dev/null || true
+      wait "${others[@]}" 2>/dev/null || true
     fi
     if [[ -n "$run_relay_pid" ]]; then
       kill -TERM "$run_relay_pid" 2>/dev/null || true
       wait "$run_relay_pid" 2>/dev/null || true
-      tail -n 1 "$run_relay_out" >&2 || true
     fi
+    # the relay's summary, when it got to write one (its first line is its endpoints)
+    if (($(wc -l <"$run_relay_out") > 1)); then tail -n 1 "$run_relay_out" >&2 || true; fi
     rm -f "$run_relay_out"
     down "$run_name"
   }
@@ -157,10 +164,8 @@ run() {
   # in the background, so that a signal to this script is handled at once (bash runs a
   # trap only after its foreground command ends)
   NETLAB_NAME="$name" NETLAB_SERVER=10.77.0.2 NETLAB_RELAY="10.77.1.1:$relay_port" "$@" &
-  run_command_pid=$!
-  local status=0
-  wait "$run_command_pid" || status=$?
-  run_command_pid=""
+  local command_pid=$! status=0
+  wait "$command_pid" || status=$?
   return "$status"
 }
 
