@@ -15,6 +15,7 @@ from contextlib import contextmanager
 
 START_TIMEOUT_S = 20
 STOP_TIMEOUT_S = 10
+FEW_DESCRIPTORS_SUPP = pathlib.Path(__file__).resolve().parent / "ubsan_few_descriptors.supp"
 
 
 class ServerProcess:
@@ -29,9 +30,14 @@ class ServerProcess:
             if max_open_files is not None:
                 resource.setrlimit(resource.RLIMIT_NOFILE, (max_open_files, max_open_files))
 
+        env = None
+        if max_open_files is not None:
+            # a sanitized build's vptr check needs a descriptor of its own (the file says why)
+            options = os.environ.get("UBSAN_OPTIONS", "")
+            env = {**os.environ, "UBSAN_OPTIONS": f"{options}:suppressions={FEW_DESCRIPTORS_SUPP}".lstrip(":")}
         self.process = subprocess.Popen(
             command, stdout=subprocess.PIPE, stderr=self._stderr, text=True,
-            preexec_fn=limit_descriptors,
+            preexec_fn=limit_descriptors, env=env,
         )
         endpoints = json.loads(self._first_line())
         self.tcp: str = endpoints["tcp"]
