@@ -333,8 +333,10 @@ def test_a_10_mb_mesh_upload_and_edits_during_streaming(client, server):
     """Every state is answered while a 10 MB mesh is uploaded and the scene edited, and
     the commands pick up the new scene versions. The mesh is parsed and its BVH built on
     the control thread: a realtime channel that waited for that would stall for the
-    whole upload (about a second here), so no round trip may come near that. Finer
-    percentiles depend on the load of this shared machine; bench/ measures them."""
+    whole upload (about a second here), so no round trip may come near that: a quarter
+    of the upload's time at most (the upload, the server and this test share two cores,
+    so the bound grows with the upload on a loaded machine). Finer percentiles depend on
+    the load of this shared machine; bench/ measures them."""
     client.add_sphere("puck", 0.01, position=(0.2, 0.3, 0.01), kinematic=True)
     info = client.open_session("impedance", start=(0, 0, TOP + 0.02))
     upload = subprocess.Popen(
@@ -368,7 +370,7 @@ def test_a_10_mb_mesh_upload_and_edits_during_streaming(client, server):
         f"\nrtt p50/p99/p99.9 us: quiet {quiet_p.round(1)}, during a {upload_s:.2f} s upload "
         f"{during_p.round(1)}"
     )
-    assert rtt_us(during).max() < 50_000
+    assert rtt_us(during).max() < max(50_000, upload_s * 1e6 / 4)
     assert during_p[1] < quiet_p[1] + 5_000
 
 

@@ -25,6 +25,8 @@ from server_process import running_server
 
 STIFFNESS = 2000.0
 MATERIAL = {"stiffness": STIFFNESS}
+# how far behind the wall clock a kinematic pose read back may be (a stalled control thread)
+KINEMATIC_LAG_S = 0.05
 TETRA = np.array([[0, 0, 0], [0.1, 0, 0], [0, 0.1, 0], [0, 0, 0.1]], dtype=np.float64)
 
 
@@ -136,7 +138,9 @@ def test_edits_change_the_scene_and_bump_its_version(shapes_scene):
     assert client.set_material("box", {"stiffness": 500, "damping": 1}) == version + 2
     assert client.scene().object("box").material.stiffness == 500
     # a kinematic object is moved, and then moves by its velocity until it is stopped:
-    # after a pause it has gone v times the pause, within the times the calls took
+    # after a pause it has gone v times the pause, within the times the calls took; the
+    # server moves it every millisecond on its control thread, whose timer a loaded
+    # machine may have kept waiting behind the read: up to KINEMATIC_LAG_S later
     client.add_sphere("puck", 0.01, position=(0.2, 0.2, 0.01), kinematic=True, material=MATERIAL)
     before_move = time.monotonic()
     client.move_kinematic("puck", (0.25, 0.2, 0.01), velocity=(0.1, 0, 0))
@@ -145,7 +149,8 @@ def test_edits_change_the_scene_and_bump_its_version(shapes_scene):
     before_look = time.monotonic()
     x = client.scene().object("puck").pose.position[0]
     after_look = time.monotonic()
-    assert 0.25 + 0.1 * (before_look - after_move) - 2e-4 <= x <= 0.25 + 0.1 * (after_look - before_move) + 2e-4
+    lowest = 0.25 + 0.1 * (before_look - after_move - KINEMATIC_LAG_S)
+    assert lowest - 2e-4 <= x <= 0.25 + 0.1 * (after_look - before_move) + 2e-4
     stopped = client.move_kinematic("puck", (0.3, 0.2, 0.01))
     time.sleep(0.05)
     assert np.allclose(client.scene().object("puck").pose.position, [0.3, 0.2, 0.01], atol=1e-12)

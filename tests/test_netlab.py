@@ -8,7 +8,6 @@ import os
 import pathlib
 import signal
 import subprocess
-import time
 
 import pytest
 
@@ -89,14 +88,12 @@ def test_a_session_crosses_the_lab_through_the_relay(bin_dir, lab, tmp_path):
 
 def test_a_run_is_torn_down_when_interrupted(bin_dir):
     name = f"i{os.getpid() % 100000}"
-    run = subprocess.Popen(["bash", str(NETLAB), "run", "--name", name, "--delay-ms", "5", "--", "sleep", "60"],
+    # the command says when it runs: the run starts it once the relay is up
+    run = subprocess.Popen(["bash", str(NETLAB), "run", "--name", name, "--delay-ms", "5", "--",
+                            "bash", "-c", "echo up; exec sleep 60"],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 20
-    while len(namespaces(name)) < 3:
-        assert run.poll() is None, run.stderr.read()
-        assert time.monotonic() < deadline, "the lab did not come up"
-        time.sleep(0.05)
-    time.sleep(0.3)  # the relay is up
+    assert run.stdout.readline().strip() == "up", run.stderr.read()
+    assert len(namespaces(name)) == 3
     run.send_signal(signal.SIGINT)
     _, err = run.communicate(timeout=20)
     assert run.returncode == 130
