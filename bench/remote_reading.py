@@ -103,6 +103,22 @@ def main() -> int:
               f"{ref_passive}/{len(mine)}), force within 2% {close}/{len(mine)}, largest energy the channel adds "
               f"{added:.2g} J -> {verdict(stable == passive == close == len(mine))}")
     print("  Colgate: 1 kHz, b > K T / 2 = 2.5 N s/m at 5000 N/m; the device has 0.5 N s/m")
+    print("\n  local model + TDPA (the device's port a one-port on its rendering, remote/channel_ends.h):")
+    guarded = [r for r in sweep if r["mode"] == "local_model" and r["passivity"] == "tdpa"
+               and r["stiffness_n_per_m"] >= 5000 and r["delay_ms"] == 50 and r["jitter_ms"] == 20 and r["loss"] == 0.1]
+    for r in sorted(guarded, key=lambda r: (r["stiffness_n_per_m"], SCENES.index(r["scene"]), r["speed_m_per_s"])):
+        print(f"  {r['scene']:7s} k {r['stiffness_n_per_m']:6g} v {r['speed_m_per_s']:g}: {r['class']:15s} "
+              f"energy {r['surface_energy_j'] * 1e3:+8.3f} mJ  channel {r['channel_energy_j'] * 1e3:+.4f} mJ  "
+              f"force error {r['force_error']:.2%}  penetration {r['penetration_m'] * 1e3:.2f} mm "
+              f"(no delay, direct: {ref(r)['penetration_m'] * 1e3:.2f})")
+    for k in (5000, 10000, 30000):
+        mine = [r for r in guarded if r["stiffness_n_per_m"] == k]
+        stable = sum(r["class"] == "stable" for r in mine)
+        passive = sum(r["surface_energy_j"] <= 0 for r in mine)
+        close = sum(r["force_error"] <= 0.02 for r in mine)
+        worst = max(r["force_error"] for r in mine)
+        print(f"  local model + TDPA, k {k}, 50 ms/20 ms/10%: stable {stable}/{len(mine)}, passive {passive}/{len(mine)}, "
+              f"force within 2% {close}/{len(mine)} (worst {worst:.2%}) -> {verdict(stable == passive == close == len(mine))}")
     print("\n  with the device's own passivity controller (control.passivity):")
     controlled = [r for r in rows if r["controller"] and r["stiffness_n_per_m"] >= 5000]
     for r in sorted(controlled, key=lambda r: (r["stiffness_n_per_m"], r["delay_ms"], SCENES.index(r["scene"]),

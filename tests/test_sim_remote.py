@@ -106,6 +106,21 @@ def test_tdpa_holds_when_a_thin_plate_rises_into_the_hand(tmp_path, mode):
         assert summary["channel_energy_j"] <= 0, (delay, loss, stiffness, summary)
 
 
+def test_tdpa_with_the_local_model_keeps_the_wall_as_stiff_and_the_rendering_passive(tmp_path):
+    # the device's port is a one-port on its own rendering: across the delay the steady
+    # force is the local model's own (k d within 2%), the device no deeper, and the
+    # rendered work and the channel's energy at or below zero (before, the port was held
+    # to what the server's end let in, and the wall softened to nothing at rest)
+    plain, plain_rows = run_sim(tmp_path, PRESS, *NETWORK, "remote.mode=local_model", trace=True)
+    guarded, guarded_rows = run_sim(tmp_path, PRESS, *NETWORK, "remote.mode=local_model", "remote.passivity=tdpa",
+                                    trace=True)
+    assert guarded["energy_j"] <= 0 and guarded["channel_energy_j"] <= 0
+    assert steady_force(guarded_rows) == pytest.approx(steady_force(plain_rows), rel=0.02)
+    assert guarded["max_penetration_m"] <= plain["max_penetration_m"] + 1e-4
+    # the renderer's end neither observes nor limits: no drift
+    assert guarded["max_drift_m"] == 0 and guarded["tdpa_renderer_activations"] == 0
+
+
 def test_without_tdpa_the_same_grid_has_an_active_channel(tmp_path):
     summary, _ = run_sim(tmp_path, PRESS, "channel.delay_ms=50", "duration_s=1.0")
     assert summary["channel_energy_j"] > 0.01

@@ -49,6 +49,7 @@ ProxyLoop::ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> 
       link_set_(links_),
       held_W_(channels_.size(), Vector3::Zero()),
       readings_(channels_.size(), NoReading()),
+      reading_t_(channels_.size(), -1.0),
       sent_(channels_.size(), 0),
       states_held_(channels_.size(), 0),
       rtt_(static_cast<std::size_t>(TotalTicks(options)) * channels_.size()),
@@ -68,7 +69,7 @@ ProxyLoop::ProxyLoop(const ProxyLoopOptions& options, std::vector<ProxyChannel> 
     watchdogs_.emplace_back(initial, options_.hold_s, options_.ramp_s);
     kinds_.push_back(caps.kind);
     caps_max_force_.push_back(caps.max_force);
-    device_ends_.emplace_back(channel.tdpa, caps.handle_mass);
+    device_ends_.emplace_back(channel.tdpa, caps.handle_mass, channel.local != nullptr);
     device_ends_.back().Reset(caps.start_W);
     deadbands_.emplace_back(channel.deadband);
   }
@@ -88,7 +89,10 @@ void ProxyLoop::SendStates(double t, int64_t deadline_ns, ProxyReport& report) {
     readings_[i] = reading;
     sent_[i] = 0;
     const bool impedance = kinds_[i] == DeviceKind::kImpedance;
-    if (impedance) device_ends_[i].Sample(reading.p_W, reading.v_W, held_W_[i]);
+    if (impedance) {
+      device_ends_[i].Sample(reading.p_W, reading.v_W, held_W_[i], reading_t_[i] < 0 ? 0.0 : t - reading_t_[i]);
+    }
+    reading_t_[i] = t;
     net::DeviceStateSample state;
     state.p_WD = reading.p_W;
     state.q_WD = reading.q_W;
@@ -158,6 +162,7 @@ void ProxyLoop::ApplyCommands(double t, double dt, double held_s, ProxyReport& r
       output.tau_W.setZero();
       avatar_W = rendered.avatar_W;
       report.contacts += rendered.contact ? 1 : 0;
+      device_ends_[i].SetSurfaceVelocity(rendered.v_surface_W);
     }
     // two-port passivity: what the device lets out is bounded by what the server let in
     if (kinds_[i] == DeviceKind::kImpedance) {

@@ -167,6 +167,7 @@ class ProxyLoop {
   std::vector<DeviceKind> kinds_;
   std::vector<double> caps_max_force_;  // per channel: the device's force limit, N
   std::vector<DeviceReading> readings_;  // per channel: this tick's (p_W NaN before the first)
+  std::vector<double> reading_t_;        // per channel: its time, s (negative before the first)
   std::vector<remote::DeviceEnd> device_ends_;   // per channel
   std::vector<remote::StateDeadband> deadbands_;  // per channel
   std::vector<uint8_t> sent_;  // per channel: a state went out this tick

@@ -201,6 +201,9 @@ TickOutput RenderSession::Render(const scene::SceneSnapshot& scene, const Device
   out.avatar_W = avatar.avatar_W;
   out.contact = avatar.contact;
   out.touched_object = avatar.object;
+  if (avatar.object >= 0 && avatar.object < scene.num_objects()) {
+    out.v_surface_W = scene.object(avatar.object).CalcPointVelocity(avatar.avatar_W);
+  }
   return out;
 }
 

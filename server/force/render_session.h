@@ -52,6 +52,10 @@ struct TickOutput {
   Vector3 avatar_W = Vector3::Zero();
   bool contact = false;
   int touched_object = -1;  // index in the snapshot of the object touched, or -1
+  // Impedance: the touched surface's own velocity at the avatar, m/s (a kinematic
+  // object's motion; zero when not touching): a device's port on a local model observes
+  // the force's work relative to it (remote/channel_ends.h).
+  Vector3 v_surface_W = Vector3::Zero();
   // The tick spent its work budget: the command is the last safe one (see above).
   bool overrun = false;
   // Impedance: f_W before the watchdog's ramp (equal to it while the watchdog is fed):

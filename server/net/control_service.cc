@@ -378,7 +378,7 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const Connect
   slot.sending_version = 0;
   slot.next_fragment = 0;
   slot.fragments_sent = 0;
-  slot.channel = remote::RendererChannel(channel.tdpa, channel.deadband);
+  slot.channel = remote::RendererChannel(channel.tdpa, channel.deadband, local_model);
   slot.channel.Reset(start_W);
   slot.state_sequence = 0;
   slot.state_send_ns = 0;

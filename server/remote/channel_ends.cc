@@ -11,10 +11,20 @@ void DeviceEnd::Reset(const Vector3& p_W) {
   p_last_W_ = p_W;
   v_last_W_.setZero();
   v_mid_W_.setZero();
+  v_surface_W_.setZero();
 }
 
-void DeviceEnd::Sample(const Vector3& p_W, const Vector3& v_W, const Vector3& f_W) {
-  const Vector3 moved = p_W - p_last_W_;
+Vector3 DeviceEnd::Limit(const Vector3& f_W, double dt) {
+  if (!local_model_) return port_.LimitForce(f_W, v_mid_W_, dt);
+  // a one-port: what the hand put in is what may come out, less a reserve for the
+  // ticks whose prediction falls short
+  port_.ReceiveOtherIn(port_.energy().in - kLocalModelReserveJ);
+  return port_.LimitForce(f_W, v_mid_W_ - v_surface_W_, dt);
+}
+
+void DeviceEnd::Sample(const Vector3& p_W, const Vector3& v_W, const Vector3& f_W, double held_s) {
+  Vector3 moved = p_W - p_last_W_;
+  if (local_model_) moved -= v_surface_W_ * held_s;
   port_.Observe(f_W.dot(moved));
   v_mid_W_ = v_W + 0.5 * (v_W - v_last_W_);
   p_last_W_ = p_W;
@@ -74,7 +84,7 @@ Vector3 RendererEnd::Step(const scene::SceneSnapshot& scene, const Vector3& targ
 }
 
 void RendererEnd::Observe(const force::TickOutput& output, const Vector3& step) {
-  port_.Observe(-output.f_W.dot(step));
+  if (observes_) port_.Observe(-output.f_W.dot(step));
   Remember(output);
 }
 

@@ -16,8 +16,10 @@ double NsToSeconds(int64_t ns) { return static_cast<double>(ns) * 1e-9; }
 
 }  // namespace
 
-RendererChannel::RendererChannel(bool tdpa, const DeadbandSettings& deadband)
-    : end_(tdpa), deadband_(deadband), keepalive_ns_(KeepaliveNs(deadband.keepalive_s)) {}
+RendererChannel::RendererChannel(bool tdpa, const DeadbandSettings& deadband, bool local_model)
+    : end_(tdpa && !local_model, !local_model),
+      deadband_(deadband),
+      keepalive_ns_(KeepaliveNs(deadband.keepalive_s)) {}
 
 void RendererChannel::Reset(const Vector3& start_W) {
   end_.Reset(start_W);

@@ -38,8 +38,10 @@ class RendererChannel {
  public:
   RendererChannel() = default;
   // tdpa: two-port passivity (the port limits the input's steps); deadband: its Weber
-  // fraction (0: off), force floor and keep-alive (infinite: none).
-  RendererChannel(bool tdpa, const DeadbandSettings& deadband);
+  // fraction (0: off), force floor and keep-alive (infinite: none). local_model: the
+  // device renders from a local model, its port a one-port (channel_ends.h): this end
+  // neither observes nor limits, whatever tdpa says.
+  RendererChannel(bool tdpa, const DeadbandSettings& deadband, bool local_model = false);
   // Between sessions: the input at start_W, energies zero, no state or command yet.
   void Reset(const Vector3& start_W);
 

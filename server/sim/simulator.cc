@@ -121,9 +121,9 @@ SimSummary Simulator::Run(const TraceSink& trace) {
   deadband.weber = weber;
   deadband.keepalive_s = std::numeric_limits<double>::infinity();
   const int64_t period_ns = std::llround(1e9 / rate_hz);
-  remote::DeviceEnd device_end(remote.tdpa, scenario_.device.mass);
+  remote::DeviceEnd device_end(remote.tdpa, scenario_.device.mass, local);
   device_end.Reset(scenario_.device.start_W);
-  remote::RendererChannel channel(remote.tdpa, deadband);
+  remote::RendererChannel channel(remote.tdpa, deadband, local);
   channel.Reset(scenario_.device.start_W);
   remote::RendererEnd& renderer_end = channel.end();
   remote::StateDeadband state_deadband(deadband);
@@ -174,7 +174,7 @@ SimSummary Simulator::Run(const TraceSink& trace) {
 
   // The device's port observes the last tick's work at each sample.
   auto observe_device = [&](const DeviceState& state) {
-    device_end.Sample(state.p_W, state.v_W, admittance ? Vector3(-state.f_sensed_W) : state.f_held_W);
+    device_end.Sample(state.p_W, state.v_W, admittance ? Vector3(-state.f_sensed_W) : state.f_held_W, dt);
   };
   // The device holds a force (impedance) or follows a pose, through its port.
   auto render = [&](const DeviceCommand& command) {
@@ -203,6 +203,7 @@ SimSummary Simulator::Run(const TraceSink& trace) {
       force::DeviceInput own{true, state.p_W, state.v_W, state.f_held_W, state.f_sensed_W};
       local_output = local_renderer->Tick(own, dt);
       if (!local_renderer->Covers(local_output.avatar_W)) ++summary.ticks_outside_model;
+      device_end.SetSurfaceVelocity(local_output.v_surface_W);
       render(DeviceCommand{local_output.f_W, local_output.p_command_W, 0, nullptr});
       state.avatar_W = local_output.avatar_W;
       state.model_version = local_renderer->model_version();

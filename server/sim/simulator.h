@@ -43,7 +43,10 @@
 //   carries the device's proxy and the version of the model it renders. The device's
 //   port observes F_k-1 . (q_k - q_k-1) at each sample (sensed positions; admittance:
 //   -f_sensed over the move), the renderer's port -F . (its avatar input's step) after
-//   each tick; channel_energy_j is the two ports' out - in, summed.
+//   each tick; channel_energy_j is the two ports' out - in, summed. With local_model the
+//   device's port is a one-port on its local rendering (channel_ends.h): it observes
+//   F_k-1 . (q_k - q_k-1 - v_surface dt), v_surface the touched surface's velocity
+//   (force::TickOutput::v_surface_W), and the renderer's end observes nothing.
 //   * The renderer's session renders, each tick, the newest state that arrived (fresh);
 //     else, under a deadband, the last state predicted on at its velocity (fresh too:
 //     the device sends nothing while nothing leaves its band); else the last state, not
@@ -58,7 +61,7 @@
 //   * local_model: each tick the device first takes the newest model that arrived
 //     (remote::LocalRenderer::Accept), renders from it with its sample (no delay), and
 //     sends its state up; the renderer runs its own session on the states as they
-//     arrive (for its port) and cuts a model about the device's proxy as the newest
+//     arrive and cuts a model about the device's proxy as the newest
 //     state gives it (remote::CutLocalModel) of radius ModelRadius(max_velocity,
 //     measured round trip, the interval until the next model, avatar radius) plus the
 //     device point's distance from its proxy, the interval being the longest the

@@ -15,6 +15,7 @@ struct hapticd_device_channel {
   hapticd::remote::DeadbandSettings settings;
   double max_force = 0;
   double period_s = 0;
+  double last_t = -1;  // the last sample's time (negative: none yet)
 };
 
 namespace {
@@ -52,7 +53,8 @@ hapticd_device_channel* hapticd_device_channel_new(const uint8_t* open_session, 
       WriteError(error, error_size, "mass must be a finite number > 0 (kg: the handle's)");
       return nullptr;
     }
-    auto* made = new hapticd_device_channel{hapticd::remote::DeviceEnd(channel.tdpa, mass),
+    auto* made = new hapticd_device_channel{hapticd::remote::DeviceEnd(channel.tdpa, mass,
+                                                                      hapticd::net::ReadLocalModelMode(open)),
                                            hapticd::remote::StateDeadband(channel.deadband), channel.deadband,
                                            settings.device.max_force, 1 / settings.device.rate_hz};
     made->end.Reset(start_W);
@@ -67,7 +69,8 @@ void hapticd_device_channel_free(hapticd_device_channel* channel) { delete chann
 
 int hapticd_device_channel_sample(hapticd_device_channel* channel, double t, const double p[3], const double v[3],
                                   const double f_held[3], double energy[2]) {
-  channel->end.Sample(Read(p), Read(v), Read(f_held));
+  channel->end.Sample(Read(p), Read(v), Read(f_held), channel->last_t < 0 ? 0.0 : t - channel->last_t);
+  channel->last_t = t;
   energy[0] = channel->end.energy().in;
   energy[1] = channel->end.energy().out;
   if (!channel->settings.on()) return 1;
@@ -78,6 +81,10 @@ int hapticd_device_channel_sample(hapticd_device_channel* channel, double t, con
     case hapticd::remote::StateVerdict::kHold: break;
   }
   return 0;
+}
+
+void hapticd_device_channel_surface_velocity(hapticd_device_channel* channel, const double v_surface[3]) {
+  channel->end.SetSurfaceVelocity(Read(v_surface));
 }
 
 int hapticd_device_channel_limit(hapticd_device_channel* channel, double server_energy_in, const double force[3],

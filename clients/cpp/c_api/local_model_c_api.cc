@@ -69,7 +69,8 @@ int hapticd_local_renderer_accept(hapticd_local_renderer* renderer, const uint8_
 }
 
 void hapticd_local_renderer_tick(hapticd_local_renderer* renderer, const double p[3], const double v[3],
-                                 const double f_held[3], double dt, double force[3], double avatar[3], int* contact) {
+                                 const double f_held[3], double dt, double force[3], double avatar[3], int* contact,
+                                 double v_surface[3]) {
   hapticd::force::DeviceInput input;
   input.p_WD = Read(p);
   input.v_WD = Read(v);
@@ -78,6 +79,7 @@ void hapticd_local_renderer_tick(hapticd_local_renderer* renderer, const double 
   Write(output.f_W, force);
   Write(output.avatar_W, avatar);
   *contact = output.contact ? 1 : 0;
+  Write(output.v_surface_W, v_surface);
 }
 
 uint64_t hapticd_local_renderer_version(const hapticd_local_renderer* renderer) {

@@ -35,9 +35,12 @@ HAPTICD_LOCAL_MODEL_API int hapticd_local_renderer_accept(hapticd_local_renderer
                                   char* error, size_t error_size);
 
 /* One tick of dt s: the handle at p (m), moving at v (m/s), after f_held (N) was
- * rendered; writes the force to render (N), the avatar (m) and whether it touches. */
+ * rendered; writes the force to render (N), the avatar (m), whether it touches, and the
+ * touched surface's own velocity at the avatar (m/s; zero when not touching or the
+ * surface is still: what hapticd_device_channel_surface_velocity takes). */
 HAPTICD_LOCAL_MODEL_API void hapticd_local_renderer_tick(hapticd_local_renderer* renderer, const double p[3], const double v[3],
-                                 const double f_held[3], double dt, double force[3], double avatar[3], int* contact);
+                                 const double f_held[3], double dt, double force[3], double avatar[3], int* contact,
+                                 double v_surface[3]);
 
 /* The model rendered from (0: none yet), and whether the avatar lies within its ball. */
 HAPTICD_LOCAL_MODEL_API uint64_t hapticd_local_renderer_version(const hapticd_local_renderer* renderer);

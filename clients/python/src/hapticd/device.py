@@ -360,12 +360,15 @@ class DeviceSession(ClosesOnExit):
             raise LocalError("render() is for a local-model session; this one is direct")
         rendered = self.local.tick(position, velocity, self._rendered, dt)
         self._rendered = rendered.force
+        if self.channel is not None:
+            self.channel.surface_velocity(rendered.surface_velocity)
         return rendered
 
     def limit_force(self, force: ArrayLike, dt: float) -> FloatArray:
         """The force (N) to render over the coming dt s: under tdpa, force saturated at
         the session's max_force and limited by the device's passivity port to what the
-        server's commands have let in; otherwise force itself."""
+        server's commands have let in (a local-model session's: to what the hand put into
+        the rendering, relative to the surface render() touched); otherwise force itself."""
         if self.channel is None:
             return np.asarray(force, dtype=np.float64).reshape(3).copy()
         self._rendered = self.channel.limit(self.server_energy_in, force, dt)

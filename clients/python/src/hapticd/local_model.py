@@ -70,7 +70,7 @@ def _load() -> ctypes.CDLL:
     library.hapticd_local_renderer_accept.argtypes = [p, u8, size, double, ctypes.c_char_p, size]
     library.hapticd_local_renderer_tick.restype = None
     library.hapticd_local_renderer_tick.argtypes = [
-        p, _Vec3, _Vec3, _Vec3, double, _Vec3, _Vec3, ctypes.POINTER(ctypes.c_int)
+        p, _Vec3, _Vec3, _Vec3, double, _Vec3, _Vec3, ctypes.POINTER(ctypes.c_int), _Vec3
     ]
     library.hapticd_local_renderer_version.restype = ctypes.c_uint64
     library.hapticd_local_renderer_version.argtypes = [p]
@@ -84,6 +84,8 @@ def _load() -> ctypes.CDLL:
     library.hapticd_device_channel_sample.argtypes = [
         p, double, _Vec3, _Vec3, _Vec3, ctypes.c_double * 2
     ]
+    library.hapticd_device_channel_surface_velocity.restype = None
+    library.hapticd_device_channel_surface_velocity.argtypes = [p, _Vec3]
     library.hapticd_device_channel_limit.restype = ctypes.c_int
     library.hapticd_device_channel_limit.argtypes = [p, double, _Vec3, double, _Vec3]
     _library = library
@@ -93,11 +95,13 @@ def _load() -> ctypes.CDLL:
 @dataclass(frozen=True, eq=False)
 class LocalForce:
     """One tick of the device's own rendering: the force to render (N), the avatar (its
-    proxy, m) and whether it touches the scene."""
+    proxy, m), whether it touches the scene, and the touched surface's own velocity at
+    the avatar (m/s; zero when not touching or the surface is still)."""
 
     force: FloatArray
     avatar: FloatArray
     contact: bool
+    surface_velocity: FloatArray
 
 
 class ModelAssembler:
@@ -206,13 +210,14 @@ class LocalRenderer:
         v = _Vec3(*check.vector3(velocity, "velocity"))
         f = _Vec3(*check.vector3(held_force, "held_force"))
         step = check.positive(dt, "dt")
-        force, avatar, contact = _Vec3(), _Vec3(), ctypes.c_int(0)
+        force, avatar, contact, surface = _Vec3(), _Vec3(), ctypes.c_int(0), _Vec3()
         self._library.hapticd_local_renderer_tick(
-            self._live(), p, v, f, step, force, avatar, ctypes.byref(contact)
+            self._live(), p, v, f, step, force, avatar, ctypes.byref(contact), surface
         )
         self.avatar = np.array(avatar[:], dtype=np.float64)
         rendered = np.array(force[:], dtype=np.float64)
-        return LocalForce(rendered, self.avatar.copy(), bool(contact.value))
+        moving = np.array(surface[:], dtype=np.float64)
+        return LocalForce(rendered, self.avatar.copy(), bool(contact.value), moving)
 
     def covers(self, position: ArrayLike) -> bool:
         """Whether the avatar at position lies within the model's ball."""
@@ -270,9 +275,17 @@ class DeviceChannel:
         self.energy_in, self.energy_out = float(energy[0]), float(energy[1])
         return int(verdict)
 
+    def surface_velocity(self, velocity: ArrayLike) -> None:
+        """A local-model session's, each tick after rendering: the velocity (m/s) of the
+        surface the force pushes from (LocalForce.surface_velocity), which the port, a
+        one-port on the local rendering, observes and predicts relative to."""
+        v = _Vec3(*check.vector3(velocity, "velocity"))
+        self._library.hapticd_device_channel_surface_velocity(self._live(), v)
+
     def limit(self, server_energy_in: float, force: ArrayLike, dt: float) -> FloatArray:
         """The force (N) to hold over the coming dt s: force saturated at the session's
-        max_force, and under tdpa no more than server_energy_in (J) allows."""
+        max_force, and under tdpa no more than server_energy_in (J) allows (a local-model
+        session's: no more than the hand put into its local rendering)."""
         f = _Vec3(*check.vector3(force, "force"))
         out = _Vec3()
         self._library.hapticd_device_channel_limit(
