@@ -27,7 +27,9 @@ A session opened with tdpa or a deadband (Client.open_session(tdpa=True, deadban
 runs the device's end of the channel (local_model.DeviceChannel, the C++ hapticd-proxy
 runs): each send_state samples its passivity port (the force held over the handle's
 move) and sends its energies; limit_force(force, dt) is the force to render under
-two-port passivity, bounded by the energy the server's commands report; and under the
+two-port passivity, bounded by the energy the server's commands report (a local-model
+session's: by what the hand put into render()'s rendering, relative to the surface it
+touched, render() passing that surface's velocity on); and under the
 deadband send_state sends only a state the server could not predict, or a keep-alive,
 returning 0 when it held one back (counted in counters.held).
 """
