@@ -26,13 +26,15 @@ PATH = "0,0,0,0.12;1,0,0,0.09;4,0,0,0.09"
 CHANNEL = ("--delay-ms", "50", "--jitter-ms", "5", "--loss", "10%", "--seed", "11")
 
 
-def write_box_scene(path, damping: float = 0.0):
-    scene = {"scene": {"objects": [{
+def write_box_scene(path, damping: float = 0.0, velocity=None):
+    box = {
         "name": "box", "shape": {"type": "box", "half_extents": [0.05, 0.05, 0.05]},
         "position": [0, 0, TOP / 2],
         "material": {"stiffness": STIFFNESS, "damping": damping, "static_friction": 0, "dynamic_friction": 0},
-    }]}}
-    path.write_text(json.dumps(scene))
+    }
+    if velocity is not None:
+        box["motion"] = {"velocity": list(velocity), "angular_velocity": [0, 0, 0]}
+    path.write_text(json.dumps({"scene": {"objects": [box]}}))
     return path
 
 
@@ -95,6 +97,26 @@ def test_the_local_model_renders_a_stiff_box_across_the_delay(bin_dir, box_scene
     assert force[0] == pytest.approx(0, abs=1e-9) and force[1] == pytest.approx(0, abs=1e-9)
     assert force[2] == pytest.approx(STIFFNESS * depth, rel=0.02)
     # passive: the rendering took energy from the hand, never gave it
+    assert report["energy_j"] <= 0
+
+
+def test_a_box_sliding_under_the_press_is_moved_on_by_the_device(bin_dir, tmp_path):
+    # the same press into the box sliding sideways at 5 mm/s (frictionless, so its top
+    # stays where it was; at most 3 cm of its 10 cm go by): the models carry its
+    # velocity, one per round trip, and between them the proxy's builder thread moves
+    # it on every tick for the loop to swap in. The press renders as on the box at rest,
+    # and every newer cut agrees with the box the device moved about the surface
+    sliding = write_box_scene(tmp_path / "sliding_box.json", velocity=(0.005, 0, 0))
+    report = press(bin_dir, sliding, "local-model")
+    assert report["models_adopted"] >= 2 and report["models_rejected"] == 0
+    assert report["models_moved"] > 1000
+    assert report["model_blends"] == 0
+    depth = TOP - report["final_position_m"][2]
+    assert 0.0003 < depth < 0.001
+    assert report["lowest_avatar_z_m"] >= TOP - 1e-9
+    force = report["final_force_n"]
+    assert force[0] == pytest.approx(0, abs=1e-9) and force[1] == pytest.approx(0, abs=1e-9)
+    assert force[2] == pytest.approx(STIFFNESS * depth, rel=0.02)
     assert report["energy_j"] <= 0
 
 

@@ -129,6 +129,7 @@ void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const 
       "\"energy_j\": {:.6f}, \"lowest_z_m\": {}, \"lowest_avatar_z_m\": {}, \"final_force_n\": {}, "
       "\"final_position_m\": {}, \"remote_mode\": \"{}\", \"models_adopted\": {}, \"model_version\": {}, "
       "\"model_fragments\": {}, \"models_completed\": {}, \"models_rejected\": {}, \"model_blends\": {}, "
+      "\"models_moved\": {}, "
       "\"contacts\": {}, \"watchdog_trips\": {}, \"session_ended\": \"{}\", \"cpu_s\": {:.3f}, "
       "\"tdpa\": {}, \"tdpa_activations\": {}, \"device_energy_in_j\": {:.9f}, \"device_energy_out_j\": {:.9f}, "
       "\"server_energy_in_j\": {:.9f}, \"server_energy_out_j\": {:.9f}, \"channel_energy_j\": {:.9f}, "
@@ -145,7 +146,7 @@ void PrintReport(const ProxyOptions& options, int priority, double cpu_s, const 
       r.packets.stale, r.packets.bad, r.packets.send_errors, r.max_force_n, r.energy_j,
       OrNull(r.lowest_z_m), OrNull(r.lowest_avatar_z_m), JsonVector(r.final_f_W), JsonVector(r.final_p_W),
       options.local_model ? "local-model" : "direct", r.models.adopted, r.models.version, r.models.fragments,
-      r.models.completed, r.models.rejected, r.models.blends, r.contacts, r.watchdog_trips,
+      r.models.completed, r.models.rejected, r.models.blends, r.models.moved, r.contacts, r.watchdog_trips,
       r.session_ended, cpu_s, options.tdpa, r.tdpa_activations, r.device_energy.in, r.device_energy.out,
       r.server_end.energy_in, r.server_end.energy_out, r.channel_energy_j(), r.device_repaid_j, r.device_owed_j,
       r.stall_work_j, options.deadband.weber,

@@ -117,11 +117,14 @@ Vector3 CarryProxy(const query::Neighbourhood& near, const Vector3& x, double r,
     const query::SceneContact carrier = query::FindKinematicContact(near, x, r + kRestingGap);
     if (carrier.object >= 0) carried += dt * scene.object(carrier.object).CalcPointVelocity(carrier.point_W);
   }
-  // an object that moved into the proxy (or appeared around it) pushes it out
+  // an object that moved into the proxy (or appeared around it) pushes it out, however
+  // little: a point's sweep that starts inside a solid is not stopped by the face it is
+  // behind (primitives allow 1e-10 m, meshes nothing), so a proxy left even a skin's
+  // width inside (an object that moved a little more than the carry) would drop through
   if (!any_kinematic && !scene_changed) return carried;
   for (int push = 0; push < kMaxPushes; ++push) {
     const query::SceneContact inside = query::FindDeepestContact(near, carried, r, 0);
-    if (inside.object < 0 || inside.depth <= kSkin) break;
+    if (inside.object < 0 || inside.depth <= 0) break;
     carried += (inside.depth + kSkin) * inside.normal_W;
   }
   return carried;

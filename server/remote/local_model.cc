@@ -113,7 +113,8 @@ LocalModel CutLocalModel(const scene::SceneSnapshot& scene, const Vector3& cente
   return model;
 }
 
-LocalRenderer::LocalRenderer(const force::SessionSettings& settings) : session_(settings) {}
+LocalRenderer::LocalRenderer(const force::SessionSettings& settings, ModelMotion motion)
+    : session_(settings), motion_(motion) {}
 LocalRenderer::LocalRenderer(LocalRenderer&&) noexcept = default;
 LocalRenderer::~LocalRenderer() = default;
 
@@ -131,6 +132,7 @@ std::unique_ptr<PreparedModel> LocalRenderer::Prepare(const LocalModel& model, d
   for (const scene::ObjectSpec& spec : model.objects) prepared->builder.Add(spec);
   prepared->builder.AdvanceKinematic(std::max(now_s - model.t_s, 0.0));
   prepared->scene = prepared->builder.Build(model.version);
+  prepared->t_s = std::max(now_s, model.t_s);
   prepared->moving = prepared->builder.HasMovingObjects();
   prepared->version = model.version;
   prepared->center_W = model.center_W;
@@ -153,6 +155,13 @@ bool LocalRenderer::Accept(const LocalModel& model, double now_s) {
   if (model.version <= version_) return false;
   std::unique_ptr<PreparedModel> prepared = Prepare(model, now_s);
   return Adopt(prepared);
+}
+
+bool LocalRenderer::Move(std::shared_ptr<const scene::SceneSnapshot>& scene, double t_s) {
+  if (!model_ || !scene || scene->version() != version_) return false;
+  model_->scene.swap(scene);
+  model_->t_s = t_s;
+  return true;
 }
 
 bool LocalRenderer::Covers(const Vector3& p_W) const {
@@ -195,11 +204,29 @@ force::TickOutput LocalRenderer::Tick(const force::DeviceInput& input, double dt
   }
   last_avatar_W_ = output.avatar_W;
   last_f_W_ = output.f_W;
-  if (model_ && model_->moving) {
+  if (motion_ == ModelMotion::kByTick && model_ && model_->moving) {
     model_->builder.AdvanceKinematic(dt);
     model_->scene = model_->builder.Build(version_);
+    model_->t_s += dt;
   }
   return output;
+}
+
+void KinematicMotion::Follow(const PreparedModel& prepared) {
+  builder_ = prepared.builder;
+  version_ = prepared.version;
+  t_s_ = prepared.t_s;
+  moving_ = prepared.moving;
+}
+
+std::shared_ptr<const scene::SceneSnapshot> KinematicMotion::SceneAt(double t_s) {
+  if (version_ == 0) return nullptr;
+  // never back: a time before the last moves nothing
+  if (t_s > t_s_) {
+    builder_.AdvanceKinematic(t_s - t_s_);
+    t_s_ = t_s;
+  }
+  return builder_.Build(version_);
 }
 
 }  // namespace hapticd::remote

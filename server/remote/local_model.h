@@ -13,11 +13,12 @@
 // covers where the device can get before a newer model reaches it (ModelRadius). The
 // device builds a small scene of it (LocalRenderer) and renders with the same
 // force::RenderSession the renderer runs; its kinematic objects move on by their
-// velocity between models. A newer model replaces the scene under the session, which
-// keeps its proxy (so the proxy stays outside what both models hold solid); where the
-// two models disagree about the surface near the avatar (an object's pose corrected, an
-// edit), the force is blended from the old to the new over kModelBlendS, so the hand
-// is never jerked.
+// velocity between models (ModelMotion: each tick moves them, or, on a real-time device,
+// another thread builds the moved scene and the tick swaps it in, KinematicMotion). A
+// newer model replaces the scene under the session, which keeps its proxy (so the proxy
+// stays outside what both models hold solid); where the two models disagree about the
+// surface near the avatar (an object's pose corrected, an edit), the force is blended
+// from the old to the new over kModelBlendS, so the hand is never jerked.
 
 #include <cstdint>
 #include <memory>
@@ -69,15 +70,26 @@ struct PreparedModel {
   Vector3 center_W = Vector3::Zero();
   double radius = -1;
   scene::SceneBuilder builder;  // keeps the objects, to move the kinematic ones on
-  std::shared_ptr<const scene::SceneSnapshot> scene;
+  std::shared_ptr<const scene::SceneSnapshot> scene;  // its version is the model's
+  double t_s = 0;       // renderer time the scene's kinematic poses are at
   bool moving = false;  // some kinematic object has a velocity
+};
+
+// Who moves a model's kinematic objects on between models.
+enum class ModelMotion {
+  // Each Tick moves them by its dt and builds the moved scene (allocates): for a device
+  // that may allocate (the simulator's, the Python binding's).
+  kByTick,
+  // The caller moves them off the real-time thread (KinematicMotion) and hands each
+  // moved scene to Move; a Tick allocates nothing.
+  kByCaller,
 };
 
 // The device side: renders from the newest model it has.
 class LocalRenderer {
  public:
   // The session as the device asked for it. Throws std::invalid_argument on bad settings.
-  explicit LocalRenderer(const force::SessionSettings& settings);
+  explicit LocalRenderer(const force::SessionSettings& settings, ModelMotion motion = ModelMotion::kByTick);
   LocalRenderer(LocalRenderer&&) noexcept;
   ~LocalRenderer();
 
@@ -94,13 +106,21 @@ class LocalRenderer {
   std::unique_ptr<PreparedModel> TakeRetired() { return std::move(retired_); }
   // Prepare and Adopt at once (the simulator's device, which may allocate).
   bool Accept(const LocalModel& model, double now_s);
-  // One tick from the newest model (free space before any), then its kinematic objects
-  // move on by dt. Allocates nothing for a model without moving objects; with them it
-  // builds the moved scene each tick (allocates: a real-time device loop holding one
-  // breaks its rule; moving them in place is left to do).
+  // Renders from scene from the next tick on: the model held, its kinematic objects
+  // moved to t_s (renderer time) off the real-time thread (KinematicMotion::SceneAt).
+  // The same model, not a new one: neither blended nor counted as a version. A scene of
+  // another version than the model held (or none) is left with the caller (false); on
+  // true, scene holds the one it replaced, for the caller to free where it may.
+  // Allocates and frees nothing.
+  bool Move(std::shared_ptr<const scene::SceneSnapshot>& scene, double t_s);
+  // One tick from the newest model (free space before any). With ModelMotion::kByTick,
+  // its kinematic objects then move on by dt: a model with moving objects builds the
+  // moved scene (allocates). With kByCaller, a tick allocates nothing.
   force::TickOutput Tick(const force::DeviceInput& input, double dt);
 
   uint64_t model_version() const { return version_; }
+  // The renderer time the next tick's kinematic poses are at (0 before any model).
+  double scene_t_s() const { return model_ ? model_->t_s : 0; }
   // Whether the avatar of radius r at p_W lies within the model's ball.
   bool Covers(const Vector3& p_W) const;
   const force::RenderSession& session() const { return session_; }
@@ -109,6 +129,7 @@ class LocalRenderer {
 
  private:
   force::RenderSession session_;
+  ModelMotion motion_;
   std::unique_ptr<PreparedModel> model_;
   std::unique_ptr<PreparedModel> previous_;  // until the first tick on model_
   std::unique_ptr<PreparedModel> retired_;   // previous_ after that tick
@@ -118,6 +139,34 @@ class LocalRenderer {
   Vector3 blend_offset_W_ = Vector3::Zero();  // decays to zero over kModelBlendS
   double blend_left_s_ = 0;
   int64_t blends_ = 0;
+};
+
+// The kinematic objects of the model a real-time device renders from, moved on off its
+// real-time thread (for LocalRenderer with ModelMotion::kByCaller): it keeps its own
+// copy of the model's objects (the geometry is shared) and builds the scene for the time
+// its caller asks, which LocalRenderer::Move swaps in. Allocates: all of it belongs off
+// the real-time thread. The snapshots it builds share objects with the model's, so the
+// thread that calls it must be the only one to copy or free them (the device's builder).
+class KinematicMotion {
+ public:
+  // Follows prepared's model from now on, from the poses its scene holds (at prepared.t_s).
+  void Follow(const PreparedModel& prepared);
+  // The model followed (0: none yet).
+  uint64_t version() const { return version_; }
+  // Whether the model followed has a kinematic object with a velocity: else every scene
+  // would be the one the model already holds.
+  bool moving() const { return moving_; }
+  // The renderer time the poses are at now.
+  double t_s() const { return t_s_; }
+  // The followed model's scene (its version) with the kinematic objects moved on to t_s
+  // (renderer time; one before the last asked for moves nothing). Null before any model.
+  std::shared_ptr<const scene::SceneSnapshot> SceneAt(double t_s);
+
+ private:
+  scene::SceneBuilder builder_;
+  uint64_t version_ = 0;
+  double t_s_ = 0;
+  bool moving_ = false;
 };
 
 }  // namespace hapticd::remote

@@ -1,6 +1,7 @@
 // The device end of a local-model session: fragments in, the model built on its own
 // thread, the force rendered as the server would render it from the whole scene, bad
-// models refused without losing the good one, and no allocation on the loop's side.
+// models refused without losing the good one, moving objects moved on by the builder,
+// and no allocation on the loop's side.
 #include "clients/cpp/local_model_device.h"
 
 #include <algorithm>
@@ -155,6 +156,69 @@ TEST(LocalModelDevice, ATickAndAFragmentAllocateNothing) {
     device.Tick(At(p), Vector3::Zero(), kDt);
   }
   EXPECT_EQ(hapticd::testing::AllocationCount(), before);
+}
+
+// A plate rising at a known velocity under a held handle, the loop ticking at its 1 kHz
+// (1 ms sleeps) while the builder thread moves the plate on: after the model is adopted,
+// the loop's thread allocates and frees nothing; each tick renders the plate where its
+// velocity puts it at the scene's time (the force is k times the depth of the top, to
+// the 1 um skin); that time is never more than half a period ahead of the tick and
+// follows it (a plate that did not move would fall 0.3 s behind).
+TEST(LocalModelDevice, AMovingPlateMovesOnWithoutTheLoopAllocating) {
+  constexpr double kRise = 0.01;  // m/s
+  constexpr double kPlateStiffness = 1000;
+  constexpr double kHalfPeriodS = 0.0005;  // of the session's 1 kHz
+  scene::SceneBuilder builder;
+  scene::ObjectSpec plate = MakeObject("plate", scene::BoxShape{Vector3(0.05, 0.05, 0.005)}, {0, 0, -0.005},
+                                       MakeMaterial(kPlateStiffness));
+  plate.motion = scene::Motion::kKinematic;
+  plate.v_WB = Vector3(0, 0, kRise);  // its top at kRise t (session time t)
+  builder.Add(plate);
+  const Vector3 p(0, 0, 0.0002);  // the top reaches it at 20 ms
+  const int64_t session_start_ns = MonotonicNowNs();
+  const auto session_s = [&] { return static_cast<double>(MonotonicNowNs() - session_start_ns) * 1e-9; };
+  LocalModelDevice device(force::SessionSettings{}, p, session_start_ns);
+  OfferModel(device, remote::CutLocalModel(*builder.Build(1), Vector3::Zero(), 0.2, 1, 0), 8);
+  TickUntilVersion(device, p, 1);
+  for (int k = 0; k < 20; ++k) {
+    device.Tick(At(p), Vector3::Zero(), kDt);
+    SleepUntilNs(MonotonicNowNs() + 1'000'000);
+  }
+
+  constexpr int kTicks = 300;
+  std::vector<double> f_z(kTicks), scene_t(kTicks), tick_start(kTicks), tick_end(kTicks);
+  const long allocated_before = hapticd::testing::ThreadAllocationCount();
+  const long freed_before = hapticd::testing::ThreadFreeCount();
+  for (int k = 0; k < kTicks; ++k) {
+    tick_start[k] = session_s();
+    f_z[k] = device.Tick(At(p), Vector3::Zero(), kDt).f_W.z();
+    tick_end[k] = session_s();
+    scene_t[k] = device.scene_t_s();
+    SleepUntilNs(MonotonicNowNs() + 1'000'000);
+  }
+  EXPECT_EQ(hapticd::testing::ThreadAllocationCount() - allocated_before, 0);
+  EXPECT_EQ(hapticd::testing::ThreadFreeCount() - freed_before, 0);
+
+  std::vector<double> lags;
+  for (int k = 0; k < kTicks; ++k) {
+    const double depth = kRise * scene_t[k] - p.z();
+    // in contact, below the 10 N the force is saturated to
+    if (depth > 1e-5 && kPlateStiffness * depth < 9) {
+      EXPECT_NEAR(f_z[k], kPlateStiffness * depth, kPlateStiffness * 2e-6) << k;
+    }
+    EXPECT_LE(scene_t[k], tick_end[k] + kHalfPeriodS + 1e-9) << k;
+    lags.push_back(tick_start[k] - scene_t[k]);
+  }
+  EXPECT_GT(f_z.back(), 1.0);  // 1 mm into the plate at least (0.3 s)
+  std::sort(lags.begin(), lags.end());
+  // a bound for a loaded machine (the lag is P/2 plus the builder's lateness, tens of
+  // microseconds when idle)
+  EXPECT_LT(lags.back(), 0.1) << "median " << lags[kTicks / 2];
+  const LocalModelCounters counters = device.counters();
+  EXPECT_GT(counters.moved, 0u);
+  EXPECT_EQ(counters.version, 1u);
+  EXPECT_EQ(counters.adopted, 1u);
+  EXPECT_EQ(counters.blends, 0u);
 }
 
 }  // namespace

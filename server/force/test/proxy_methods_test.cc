@@ -258,5 +258,32 @@ TEST(KinematicObjects, AProxyRestingWithFrictionIsCarriedAlong) {
   EXPECT_NEAR(out.f_W.x(), 1000 * 1e-3, 0.03);
 }
 
+// A rising plate whose snapshots step a little more than a tick carries the proxy resting
+// on it (another thread moved it, on its own clock: 10 um plus up to 1.6 nm a tick) holds
+// the proxy on its top every tick: one left inside by less than the skin is pushed out
+// too, not dropped through to the device.
+TEST(KinematicObjects, APlateSteppingPastTheCarryNeverDropsTheProxy) {
+  for (const double radius : {0.0, 0.003}) {
+    scene::SceneBuilder builder;
+    scene::ObjectSpec table = MakeObject("table", scene::BoxShape{Vector3(0.1, 0.1, 0.01)}, Vector3(0, 0, -0.01),
+                                         MakeMaterial(1000));
+    table.motion = scene::Motion::kKinematic;
+    table.v_WB = Vector3(0, 0, 0.01);
+    builder.Add(table);
+    RenderSession session(Settings(radius > 0 ? ForceMethod::kFingerProxy : ForceMethod::kGodObject, radius));
+    session.Reset(Vector3(0, 0, radius + 0.001));
+    DeviceInput input;
+    input.p_WD = Vector3(0, 0, radius - 0.002);  // 2 mm into the top at first
+    double top = 0;
+    for (int tick = 1; tick <= 200; ++tick) {
+      top += 1e-5 + (tick % 5) * 0.4e-9;
+      builder.MoveKinematic("table", scene::Pose{geometry::Matrix3::Identity(), Vector3(0, 0, top - 0.01)},
+                            table.v_WB, Vector3::Zero());
+      const TickOutput out = session.Tick(*builder.Build(tick), input, 0.001);
+      ASSERT_NEAR(out.f_W.z(), 1000 * (top + 0.002), 1e-5) << "radius " << radius << ", tick " << tick;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace hapticd::force

@@ -1,5 +1,6 @@
 // The local model against the scene it was cut from: what it holds, and a device
-// rendering from it renders as the renderer would from the whole scene.
+// rendering from it renders as the renderer would from the whole scene; its kinematic
+// objects moved by each tick or, allocation-free, by another thread (KinematicMotion).
 #include "server/remote/local_model.h"
 
 #include <gtest/gtest.h>
@@ -7,6 +8,7 @@
 #include <cmath>
 
 #include "server/geometry/mesh_generators.h"
+#include "server/net/test/count_allocations.h"
 #include "server/scene/test/test_scenes.h"
 
 namespace hapticd::remote {
@@ -141,6 +143,92 @@ TEST(LocalModelTest, KinematicObjectsMoveOnAndACorrectedPoseIsBlended) {
   EXPECT_NEAR(forces.back(), 2000 * 0.0005, 1e-5);  // the new model's force, once blended
   // an older model than the one held is refused
   EXPECT_FALSE(device.Accept(CutLocalModel(*builder.Build(2), Vector3::Zero(), 0.2, 1, 0.2), 0.2));
+}
+
+// A rising, drifting lift moved off the tick (KinematicMotion, swapped in by Move) renders
+// as the tick-moved one does, its ticks and swaps allocating and freeing nothing; a
+// renderer moved by its caller does not move the lift itself, and a swap is neither a new
+// version nor a blend.
+TEST(LocalModelTest, AMotionMovedByTheCallerRendersAsOneMovedByTheTick) {
+  constexpr double kDt = 0.001;
+  scene::SceneBuilder builder;
+  scene::ObjectSpec box = MakeObject("lift", scene::BoxShape{Vector3(0.05, 0.05, 0.01)}, {0, 0, -0.01}, MakeMaterial(2000));
+  box.motion = scene::Motion::kKinematic;
+  box.v_WB = Vector3(0.002, 0, 0.01);  // rising 1 cm/s, drifting 2 mm/s
+  box.w_WB = Vector3(0, 0, 0.1);       // and turning about z
+  builder.Add(box);
+  const LocalModel model = CutLocalModel(*builder.Build(1), Vector3::Zero(), 0.2, 1, 0);
+  const Vector3 p(0, 0, 0.001);
+  force::DeviceInput input;
+  input.p_WD = p;
+
+  LocalRenderer ticked(force::SessionSettings{});
+  ticked.Reset(p);
+  ASSERT_TRUE(ticked.Accept(model, 0));
+  LocalRenderer moved(force::SessionSettings{}, ModelMotion::kByCaller);
+  moved.Reset(p);
+  std::unique_ptr<PreparedModel> prepared = LocalRenderer::Prepare(model, 0);
+  KinematicMotion motion;
+  motion.Follow(*prepared);
+  EXPECT_TRUE(motion.moving());
+  EXPECT_EQ(motion.version(), 1u);
+  ASSERT_TRUE(moved.Adopt(prepared));
+
+  // left alone, a renderer moved by its caller keeps the lift where it was: 1 mm below
+  // the device point, no force
+  for (int k = 0; k < 20; ++k) EXPECT_EQ(moved.Tick(input, kDt).f_W.norm(), 0) << k;
+  EXPECT_EQ(moved.scene_t_s(), 0);
+  moved.Reset(p);
+  for (int k = 0; k < 20; ++k) ticked.Tick(input, kDt);
+  ticked.Reset(p);
+
+  // from 20 ticks on, the lift is moved to each tick's time off the tick
+  std::shared_ptr<const scene::SceneSnapshot> scene = motion.SceneAt(20 * kDt);
+  ASSERT_TRUE(moved.Move(scene, 20 * kDt));
+  long allocations = 0;
+  long frees = 0;
+  int contacts = 0;
+  for (int k = 20; k < 400; ++k) {
+    const force::TickOutput a = ticked.Tick(input, kDt);
+    const long allocated_before = hapticd::testing::ThreadAllocationCount();
+    const long freed_before = hapticd::testing::ThreadFreeCount();
+    const force::TickOutput b = moved.Tick(input, kDt);
+    allocations += hapticd::testing::ThreadAllocationCount() - allocated_before;
+    frees += hapticd::testing::ThreadFreeCount() - freed_before;
+    ASSERT_LE((a.f_W - b.f_W).norm(), 1e-9) << k;
+    ASSERT_LE((a.avatar_W - b.avatar_W).norm(), 1e-12) << k;
+    contacts += b.contact;
+    // the next tick's scene, built here as a builder thread would
+    const double t = (k + 1) * kDt;
+    scene = motion.SceneAt(t);
+    const std::shared_ptr<const scene::SceneSnapshot> held = scene;
+    const long allocated_at_move = hapticd::testing::ThreadAllocationCount();
+    const long freed_at_move = hapticd::testing::ThreadFreeCount();
+    ASSERT_TRUE(moved.Move(scene, t));
+    allocations += hapticd::testing::ThreadAllocationCount() - allocated_at_move;
+    frees += hapticd::testing::ThreadFreeCount() - freed_at_move;
+    // the scene it replaced comes back to be freed here
+    ASSERT_NE(scene, held);
+    ASSERT_EQ(scene->version(), 1u);
+    EXPECT_EQ(moved.scene_t_s(), t);
+  }
+  EXPECT_EQ(allocations, 0);
+  EXPECT_EQ(frees, 0);
+  EXPECT_GT(contacts, 250);  // the lift reaches the point at 0.1 s
+  // moved to 0.4 s, the top is at 4 mm: 3 mm into the device point (to the 1 um skin)
+  EXPECT_NEAR(moved.Tick(input, kDt).f_W.z(), 2000 * 0.003, 2000 * 1e-6);
+  EXPECT_EQ(moved.model_version(), 1u);
+  EXPECT_EQ(moved.blends(), 0);
+
+  // a scene of another version than the model held stays with the caller
+  builder.Update(box);
+  std::shared_ptr<const scene::SceneSnapshot> other = builder.Build(2);
+  const std::shared_ptr<const scene::SceneSnapshot> other_held = other;
+  EXPECT_FALSE(moved.Move(other, 1.0));
+  EXPECT_EQ(other, other_held);
+  std::shared_ptr<const scene::SceneSnapshot> none;
+  EXPECT_FALSE(moved.Move(none, 1.0));
+  EXPECT_FALSE(LocalRenderer(force::SessionSettings{}, ModelMotion::kByCaller).Move(scene, 1.0));
 }
 
 }  // namespace
