@@ -55,4 +55,19 @@ inline bool AabbsOverlap(const Aabb& a, const Aabb& b) {
          (a.min.array() <= a.max.array()).all() && (b.min.array() <= b.max.array()).all();
 }
 
+// Squared distance from p to the closed box: 0 inside or on it, a lower bound of the
+// distance to anything it holds. Infinite extents work (an unbounded side is never
+// nearer than the others), Aabb::Empty() is infinitely far, and a NaN anywhere (or p
+// infinite) gives an unspecified value: callers check finiteness first.
+inline double CalcPointAabbDistanceSquared(const Vector3& p, const Aabb& box) {
+  return (box.min - p).cwiseMax(p - box.max).cwiseMax(0.0).squaredNorm();
+}
+
+// Squared distance between two closed boxes: 0 where they share a point, otherwise the
+// squared length of the per-axis gaps. Infinite extents work as above; Aabb::Empty() is
+// infinitely far from every box; a NaN gives an unspecified value.
+inline double CalcAabbAabbDistanceSquared(const Aabb& x, const Aabb& y) {
+  return (x.min - y.max).cwiseMax(y.min - x.max).cwiseMax(0.0).squaredNorm();
+}
+
 }  // namespace hapticd::geometry

@@ -2,17 +2,12 @@
 
 #include <cmath>
 
+#include "server/geometry/aabb.h"
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/work_meter.h"
 
 namespace hapticd::query {
 namespace {
-
-// Squared distance from p to a box (0 inside): a lower bound of the distance to what it
-// holds.
-double DistanceSquaredToBox(const geometry::Aabb& box, const Vector3& p) {
-  return (box.min - p).cwiseMax(p - box.max).cwiseMax(0.0).squaredNorm();
-}
 
 // How far from p the gathered triangles hold everything: what lies farther may belong to
 // triangles left out. Negative (or NaN) when nothing is known there.
@@ -38,7 +33,7 @@ std::optional<geometry::MeshClosestPoint> FindGatheredClosestPoint(const Gathere
   int seed = -1;
   double seed_d2 = best_d2;
   for (int i = 0; i < n; ++i) {
-    const double d2 = DistanceSquaredToBox(triangles[i].box, p_B);
+    const double d2 = geometry::CalcPointAabbDistanceSquared(p_B, triangles[i].box);
     if (d2 <= seed_d2 && (seed < 0 || d2 < seed_d2)) seed = i, seed_d2 = d2;
   }
   int best = -1;
@@ -55,7 +50,7 @@ std::optional<geometry::MeshClosestPoint> FindGatheredClosestPoint(const Gathere
     if (!geometry::WorkMeter::Charge(1)) return std::nullopt;
     consider(seed);
     for (int i = 0; i < n; ++i) {
-      if (i == seed || DistanceSquaredToBox(triangles[i].box, p_B) > best_d2) continue;
+      if (i == seed || geometry::CalcPointAabbDistanceSquared(p_B, triangles[i].box) > best_d2) continue;
       if (!geometry::WorkMeter::Charge(1)) return std::nullopt;
       consider(i);
     }

@@ -3,16 +3,11 @@
 #include <algorithm>
 #include <cmath>
 
+#include "server/geometry/aabb.h"
 #include "server/geometry/work_meter.h"
 
 namespace hapticd::query {
 namespace {
-
-// Squared distance between two boxes (0 where they overlap); infinite extents work.
-double DistanceSquaredBetweenBoxes(const geometry::Aabb& x, const geometry::Aabb& y) {
-  const Vector3 gap = (x.min - y.max).cwiseMax(y.min - x.max).cwiseMax(0.0);
-  return gap.squaredNorm();
-}
 
 bool IsBounded(const geometry::Aabb& bounds) {
   return !bounds.empty() && bounds.min.allFinite() && bounds.max.allFinite();
@@ -39,7 +34,7 @@ void Neighbourhood::Gather(const scene::SceneSnapshot& scene, const Vector3& a_W
   scene.ForEachObjectNear(segment_box.Inflated(radius), [&](int i) {
     if (!geometry::WorkMeter::Charge(1)) return fits = false;
     const scene::SceneObject& object = scene.object(i);
-    if (DistanceSquaredBetweenBoxes(object.bounds_W, segment_box) > radius * radius) return true;
+    if (geometry::CalcAabbAabbDistanceSquared(object.bounds_W, segment_box) > radius * radius) return true;
     if (num_objects_ == static_cast<int>(objects_.size())) return fits = false;
     objects_[num_objects_++] = {i, IsBounded(object.bounds_W), {}};
     return true;

@@ -6,17 +6,12 @@
 #include <utility>
 #include <vector>
 
+#include "server/geometry/aabb.h"
 #include "server/geometry/work_meter.h"
 #include "server/query/neighbourhood.h"
 
 namespace hapticd::query {
 namespace {
-
-// Squared distance from p to a box (0 inside); infinite extents work.
-double DistanceSquaredToBox(const geometry::Aabb& box, const Vector3& p) {
-  const Vector3 outside = (box.min - p).cwiseMax(p - box.max).cwiseMax(0.0);
-  return outside.squaredNorm();
-}
 
 // Each query's rule is written once, over the objects some walk offers (Objects:
 // for_each(box, visit) calls visit(i, mesh) for objects i whose bounds overlap box, mesh
@@ -66,7 +61,7 @@ SceneContact FindDeepestContactAmong(const scene::SceneSnapshot& scene, const Ob
     if (!geometry::WorkMeter::Charge(1)) return false;
     const scene::SceneObject& object = scene.object(i);
     // skip objects whose box is out of reach
-    if (DistanceSquaredToBox(object.bounds_W, c_W) > reach * reach) return true;
+    if (geometry::CalcPointAabbDistanceSquared(c_W, object.bounds_W) > reach * reach) return true;
     const ShapeProbe probe = ProbeShape(object.shape, object.X_WB.ToBody(c_W), reach);
     if (!probe.found) return true;
     const double depth = r - probe.signed_distance;
@@ -171,7 +166,7 @@ SceneContact FindNearestSurface(const scene::SceneSnapshot& scene, const Vector3
   scene.ForEachObjectNear({p_W - Vector3::Constant(max_gap), p_W + Vector3::Constant(max_gap)}, [&](int i) {
     const scene::SceneObject& object = scene.object(i);
     // FindDeepestContactAmong's candidates: boxes within reach
-    const double outside_sq = DistanceSquaredToBox(object.bounds_W, p_W);
+    const double outside_sq = geometry::CalcPointAabbDistanceSquared(p_W, object.bounds_W);
     if (outside_sq > max_gap * max_gap) return true;
     const double bound = outside_sq > 0 ? std::sqrt(outside_sq)
                                         : -(p_W - object.bounds_W.min).cwiseMin(object.bounds_W.max - p_W).minCoeff();
@@ -325,7 +320,7 @@ void FindFeaturesWithin(const scene::SceneSnapshot& scene, const Vector3& c_W, d
   scene.ForEachObjectNear(near, [&](int i) {
     if (!geometry::WorkMeter::Charge(1)) return false;
     const scene::SceneObject& object = scene.object(i);
-    if (DistanceSquaredToBox(object.bounds_W, c_W) > radius * radius) return true;
+    if (geometry::CalcPointAabbDistanceSquared(c_W, object.bounds_W) > radius * radius) return true;
     const int found = FindShapeFeatures(object.shape, object.X_WB.ToBody(c_W), radius, out.scratch_);
     const int kept = std::min(found, static_cast<int>(out.scratch_.size()));
     if (found > kept) out.truncated_ = true;

@@ -8,6 +8,7 @@
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/point_hull.h"
 #include "server/geometry/sphere_box.h"
+#include "server/geometry/sphere_convex_sweep.h"
 #include "server/geometry/sphere_sphere.h"
 #include "server/query/mesh_backends.h"
 
@@ -24,15 +25,9 @@ using scene::PlaneShape;
 using scene::SphereShape;
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
-// A sweep whose gap closes to this (m) has touched: far below what a hand can feel and
-// far above the rounding of coordinates of a metre-sized scene.
-constexpr double kSweepTolerance = 1e-10;
 // A sphere this close (m) to a mesh beyond its radius rests on it: motion into the
 // nearest triangle stops at once (a proxy rests a skin of 1e-9 m off the surface).
 constexpr double kRestingGap = 1e-8;
-// Conservative advancement converges in a few steps on curved surfaces and in one on
-// flat ones; this bound only guards against non-finite input.
-constexpr int kMaxSweepSteps = 64;
 
 // The unit vector along v, or fallback when v is too short to have a direction.
 Vector3 UnitOr(const Vector3& v, const Vector3& fallback) {
@@ -120,64 +115,25 @@ ShapeProbe ProbeMesh(const MeshShape& shape, const Vector3& p, double max_distan
   return probe;
 }
 
-// Sweeps a sphere against a convex solid by conservative advancement over separating
-// planes (the idea of van den Bergen's GJK ray cast): at the current centre, the
-// nearest surface point and its normal n bound the solid by the plane through that
-// point; the sphere cannot touch the solid before its surface reaches that plane, at
-// t + gap / (-(b - a) . n). Moving parallel to or away from the plane never touches.
-// Flat faces converge in one step, curved surfaces in a few.
-ShapeSweep SweepConvex(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
+// The primitives' and hulls' sweeps are the geometry kernels' (sphere_convex_sweep.h,
+// where their degenerate answers are defined), in B.
+ShapeSweep SweepFromKernel(const geometry::ConvexSweepHit& hit) {
   ShapeSweep sweep;
-  const Vector3 motion = b - a;
-  double t = 0;
-  for (int step = 0; step < kMaxSweepSteps; ++step) {
-    const Vector3 centre = a + t * motion;
-    const ShapeProbe probe = ProbeShape(shape, centre, kInfinity);
-    if (!probe.found) return sweep;
-    const double gap = probe.signed_distance - r;
-    const double approach = -motion.dot(probe.normal_B);
-    if (gap <= kSweepTolerance) {
-      // touching at the start counts only when the motion goes into the surface
-      if (approach <= 0) return sweep;
-      sweep.hit = true;
-      sweep.t = t;
-      sweep.point_B = probe.point_B;
-      sweep.normal_B = probe.normal_B;
-      return sweep;
-    }
-    if (!(approach > 0)) return sweep;
-    t += gap / approach;
-    if (!(t <= 1)) return sweep;
-  }
+  sweep.hit = hit.hit;
+  sweep.t = hit.t;
+  sweep.point_B = hit.point;
+  sweep.normal_B = hit.normal;
   return sweep;
 }
 
-// A sphere primitive in closed form: the first t at which the gap falls to
-// kSweepTolerance, where SweepConvex's advancement would stop (its iterates approach that
-// point from below), from |a + t d|^2 = rho^2, rho = R + r + tolerance, in the root form
-// C / (-B + sqrt(B^2 - AC)) that loses nothing to cancellation. A start within the
-// tolerance follows SweepConvex's rule: a hit at t = 0 only when the motion goes in.
-ShapeSweep SweepSphere(const SphereShape& sphere, const Vector3& a, const Vector3& b, double r) {
-  ShapeSweep sweep;
-  const Vector3 motion = b - a;
-  const double rho = sphere.radius + r + kSweepTolerance;
-  const double B = a.dot(motion);
-  const double C = a.squaredNorm() - rho * rho;
-  double t = 0;
-  if (C > 0) {
-    // moving away, or passing by
-    const double discriminant = B * B - motion.squaredNorm() * C;
-    if (!(B < 0) || !(discriminant >= 0)) return sweep;
-    t = C / (-B + std::sqrt(discriminant));
-    if (!(t <= 1)) return sweep;
-  }
-  const ShapeProbe contact = ProbeSphere(sphere, a + t * motion);
-  if (C <= 0 && !(-motion.dot(contact.normal_B) > 0)) return sweep;
-  sweep.hit = true;
-  sweep.t = t;
-  sweep.point_B = contact.point_B;
-  sweep.normal_B = contact.normal_B;
-  return sweep;
+// A primitive or hull swept by conservative advancement over its probe (a ray cast
+// from inside is SweepSolid's).
+ShapeSweep SweepConvex(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
+  const auto probe_at = [&](const Vector3& p) {
+    const ShapeProbe probe = ProbeShape(shape, p, kInfinity);
+    return geometry::ConvexProbe{probe.found, probe.signed_distance, probe.point_B, probe.normal_B};
+  };
+  return SweepFromKernel(geometry::SweepSphereConvex(probe_at, a, b, r));
 }
 
 // A sphere resting on a dense mesh (a proxy in contact: every tick starts so) lies
@@ -253,9 +209,9 @@ ShapeSweep SweepMesh(const MeshShape& shape, const Vector3& a, const Vector3& b,
 // one interval), its normal turned back towards a. Otherwise Sweep's first contact.
 template <ShapeSweep (*Sweep)(const scene::Shape&, const Vector3&, const Vector3&, double)>
 ShapeSweep SweepSolid(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
-  if (r == 0 && ProbeShape(shape, a, kInfinity).signed_distance < -kSweepTolerance) {
+  if (r == 0 && ProbeShape(shape, a, kInfinity).signed_distance < -geometry::kConvexSweepTolerance) {
     const ShapeProbe end = ProbeShape(shape, b, kInfinity);
-    if (!end.found || end.signed_distance < -kSweepTolerance) return {};
+    if (!end.found || end.signed_distance < -geometry::kConvexSweepTolerance) return {};
     ShapeSweep exit = Sweep(shape, b, a, 0);
     if (!exit.hit) return {};
     exit.t = 1 - exit.t;
@@ -305,7 +261,8 @@ ShapeProbe ProbeAnyMesh(const scene::Shape& shape, const Vector3& p, double max_
   return ProbeMesh(std::get<MeshShape>(shape), p, max_distance);
 }
 ShapeSweep SweepAnySphere(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
-  return SweepSphere(std::get<SphereShape>(shape), a, b, r);
+  const geometry::Sphere ball{Vector3::Zero(), std::get<SphereShape>(shape).radius};
+  return SweepFromKernel(geometry::SweepSphereSphere(ball, a, b, r));
 }
 ShapeSweep SweepAnyMesh(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
   return SweepMesh(std::get<MeshShape>(shape), a, b, r, nullptr);
@@ -347,7 +304,9 @@ ShapeProbe ProbeShape(const scene::Shape& shape, const Vector3& p_B, double max_
 ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const Vector3& b_B,
                             double r) {
   const RepresentationQueries* row = RowOf(shape);
-  if (row == nullptr || !a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || a_B == b_B) return {};
+  if (row == nullptr || !a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || !std::isfinite(r) || a_B == b_B) {
+    return {};
+  }
   return row->sweep(shape, a_B, b_B, r);
 }
 
@@ -355,7 +314,7 @@ ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const
                             const GatheredMesh& near) {
   const auto* mesh = std::get_if<MeshShape>(&shape);
   if (mesh == nullptr) return SweepSphereShape(shape, a_B, b_B, r);
-  if (!a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || a_B == b_B) return {};
+  if (!a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || !std::isfinite(r) || a_B == b_B) return {};
   return SweepMesh(*mesh, a_B, b_B, r, &near);
 }
 

@@ -42,7 +42,9 @@ struct ShapeSweep {
 
 // First contact of a sphere of radius r >= 0 (0: a point) whose centre moves a_B -> b_B.
 // A surface the sphere already touches at t = 0 counts only if the motion goes into it,
-// so a proxy resting on a surface can slide along it. Real-time safe.
+// so a proxy resting on a surface can slide along it. NaN or infinite input (r
+// included), r < 0 or a_B == b_B: a miss. Real-time safe. The primitives' and hulls'
+// answers are geometry::SweepSphereSphere's and SweepSphereConvex's (sphere_convex_sweep.h).
 //
 // A point (r = 0, a ray cast) follows one rule in every representation: it reports the
 // first surface crossing along a_B -> b_B, whichever side it comes from. So a point

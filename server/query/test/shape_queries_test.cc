@@ -131,6 +131,12 @@ TEST(ProbeShape, NonFiniteInputFindsNothing) {
   EXPECT_FALSE(ProbeShape(scene::BoxShape{Vector3::Ones()}, Vector3(nan, 0, 0), kInf).found);
   EXPECT_FALSE(SweepSphereShape(scene::SphereShape{1}, Vector3(nan, 0, 0), Vector3(3, 0, 0), 0.1).hit);
   EXPECT_FALSE(SweepSphereShape(scene::SphereShape{1}, Vector3(3, 0, 0), Vector3(-3, 0, 0), nan).hit);
+  // an infinite radius too, whatever the representation
+  EXPECT_FALSE(SweepSphereShape(scene::SphereShape{1}, Vector3(3, 0, 0), Vector3(-3, 0, 0), kInf).hit);
+  EXPECT_FALSE(SweepSphereShape(scene::BoxShape{Vector3::Ones()}, Vector3(3, 0, 0), Vector3(-3, 0, 0), kInf).hit);
+  const scene::MeshShape mesh{std::make_shared<const MeshBvh>(std::make_shared<const TriangleMesh>(
+      geometry::MakeBoxMesh(Vector3::Ones(), 1)))};
+  EXPECT_FALSE(SweepSphereShape(mesh, Vector3(3, 0, 0), Vector3(-3, 0, 0), kInf).hit);
 }
 
 // The first root of |a + t d| = R + r, the analytic answer for a sphere.
