@@ -40,6 +40,22 @@ def verdict(met: bool) -> str:
     return "MET" if met else "MISSED"
 
 
+def aim_a_runs(sweep: list[dict], passivity: str) -> list[dict]:
+    """The local-model runs aim (a) names: k >= 5000 N/m, 50 ms each way, 20 ms jitter, 10% loss."""
+    return [r for r in sweep if r["mode"] == "local_model" and r["passivity"] == passivity
+            and r["stiffness_n_per_m"] >= 5000 and r["delay_ms"] == 50 and r["jitter_ms"] == 20 and r["loss"] == 0.1]
+
+
+def print_aim_a_verdict(label: str, mine: list[dict]) -> None:
+    """Whether runs are all stable, passive (in the surface's frame) and within 2% of the force."""
+    stable = sum(r["class"] == "stable" for r in mine)
+    passive = sum(r["surface_energy_j"] <= 0 for r in mine)
+    close = sum(r["force_error"] <= 0.02 for r in mine)
+    worst = max(r["force_error"] for r in mine)
+    print(f"  {label}: stable {stable}/{len(mine)}, passive {passive}/{len(mine)}, "
+          f"force within 2% {close}/{len(mine)} (worst {worst:.2%}) -> {verdict(stable == passive == close == len(mine))}")
+
+
 def main() -> int:
     path = pathlib.Path(sys.argv[1]) if len(sys.argv) > 1 else REPO / "bench" / "results" / "remote" / "remote_maps.csv"
     rows = load(path)
@@ -84,8 +100,7 @@ def main() -> int:
 
     print("\n# aim (a): local model, k >= 5000, 50 ms each way, 20 ms jitter, 10% loss: stable, passive, force within 2%")
     print("  (energy: the rendered work in the surface's frame, surface_energy_j; energy_j on the plate and edge)")
-    aim = [r for r in sweep if r["mode"] == "local_model" and r["passivity"] == "none"
-           and r["stiffness_n_per_m"] >= 5000 and r["delay_ms"] == 50 and r["jitter_ms"] == 20 and r["loss"] == 0.1]
+    aim = aim_a_runs(sweep, "none")
     for r in sorted(aim, key=lambda r: (r["stiffness_n_per_m"], SCENES.index(r["scene"]), r["speed_m_per_s"])):
         base = ref(r)
         print(f"  {r['scene']:7s} k {r['stiffness_n_per_m']:6g} v {r['speed_m_per_s']:g}: {r['class']:15s} "
@@ -104,21 +119,15 @@ def main() -> int:
               f"{added:.2g} J -> {verdict(stable == passive == close == len(mine))}")
     print("  Colgate: 1 kHz, b > K T / 2 = 2.5 N s/m at 5000 N/m; the device has 0.5 N s/m")
     print("\n  local model + TDPA (the device's port a one-port on its rendering, remote/channel_ends.h):")
-    guarded = [r for r in sweep if r["mode"] == "local_model" and r["passivity"] == "tdpa"
-               and r["stiffness_n_per_m"] >= 5000 and r["delay_ms"] == 50 and r["jitter_ms"] == 20 and r["loss"] == 0.1]
+    guarded = aim_a_runs(sweep, "tdpa")
     for r in sorted(guarded, key=lambda r: (r["stiffness_n_per_m"], SCENES.index(r["scene"]), r["speed_m_per_s"])):
         print(f"  {r['scene']:7s} k {r['stiffness_n_per_m']:6g} v {r['speed_m_per_s']:g}: {r['class']:15s} "
               f"energy {r['surface_energy_j'] * 1e3:+8.3f} mJ  channel {r['channel_energy_j'] * 1e3:+.4f} mJ  "
               f"force error {r['force_error']:.2%}  penetration {r['penetration_m'] * 1e3:.2f} mm "
               f"(no delay, direct: {ref(r)['penetration_m'] * 1e3:.2f})")
     for k in (5000, 10000, 30000):
-        mine = [r for r in guarded if r["stiffness_n_per_m"] == k]
-        stable = sum(r["class"] == "stable" for r in mine)
-        passive = sum(r["surface_energy_j"] <= 0 for r in mine)
-        close = sum(r["force_error"] <= 0.02 for r in mine)
-        worst = max(r["force_error"] for r in mine)
-        print(f"  local model + TDPA, k {k}, 50 ms/20 ms/10%: stable {stable}/{len(mine)}, passive {passive}/{len(mine)}, "
-              f"force within 2% {close}/{len(mine)} (worst {worst:.2%}) -> {verdict(stable == passive == close == len(mine))}")
+        print_aim_a_verdict(f"local model + TDPA, k {k}, 50 ms/20 ms/10%",
+                            [r for r in guarded if r["stiffness_n_per_m"] == k])
     print("\n  with the device's own passivity controller (control.passivity):")
     controlled = [r for r in rows if r["controller"] and r["stiffness_n_per_m"] >= 5000]
     for r in sorted(controlled, key=lambda r: (r["stiffness_n_per_m"], r["delay_ms"], SCENES.index(r["scene"]),
@@ -127,13 +136,8 @@ def main() -> int:
               f"jitter {r['jitter_ms']:g} loss {r['loss']:g}: {r['class']:15s} energy {r['surface_energy_j'] * 1e3:+8.3f} mJ  "
               f"force error {r['force_error']:.2%}")
     for k in (5000, 10000, 30000):
-        mine = [r for r in controlled if r["stiffness_n_per_m"] == k and r["delay_ms"] == 50]
-        stable = sum(r["class"] == "stable" for r in mine)
-        passive = sum(r["surface_energy_j"] <= 0 for r in mine)
-        close = sum(r["force_error"] <= 0.02 for r in mine)
-        worst = max(r["force_error"] for r in mine)
-        print(f"  controller, k {k}, 50 ms/20 ms/10%: stable {stable}/{len(mine)}, passive {passive}/{len(mine)}, "
-              f"force within 2% {close}/{len(mine)} (worst {worst:.2%}) -> {verdict(stable == passive == close == len(mine))}")
+        print_aim_a_verdict(f"controller, k {k}, 50 ms/20 ms/10%",
+                            [r for r in controlled if r["stiffness_n_per_m"] == k and r["delay_ms"] == 50])
     print("\n  with Colgate's damping (device damping 1.2 K T / 2), no controller:")
     damped = [r for r in rows if r["device_damping_ns_per_m"] != BASE_DAMPING]
     for r in sorted(damped, key=lambda r: (r["stiffness_n_per_m"], SCENES.index(r["scene"]), r["speed_m_per_s"],
