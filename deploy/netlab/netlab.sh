@@ -161,14 +161,10 @@ run() {
     ((waited += 1))
     ((waited < 200)) || die "the relay did not start within 10 s"
   done
-  # in the background, so that a signal to this script is handled soon (bash runs a
-  # trap only after its foreground command ends). Polled, not waited for: a signal that
-  # comes just as bash enters `wait` can leave it blocked until the command ends (the
-  # interrupted run's test saw a whole `sleep 60` out); a short foreground sleep ends
-  # and the trap runs within it.
+  # in the background, so that a signal to this script is handled at once (bash runs a
+  # trap only after its foreground command ends)
   NETLAB_NAME="$name" NETLAB_SERVER=10.77.0.2 NETLAB_RELAY="10.77.1.1:$relay_port" "$@" &
   local command_pid=$! status=0
-  while kill -0 "$command_pid" 2>/dev/null; do sleep 0.1; done
   wait "$command_pid" || status=$?
   return "$status"
 }
