@@ -88,10 +88,13 @@ def test_a_session_crosses_the_lab_through_the_relay(bin_dir, lab, tmp_path):
 
 def test_a_run_is_torn_down_when_interrupted(bin_dir):
     name = f"i{os.getpid() % 100000}"
-    # the command says when it runs: the run starts it once the relay is up
+    # the command says when it runs: the run starts it once the relay is up. SIGINT at
+    # its default, as a terminal gives it: a test run started in the background inherits
+    # it ignored, and a shell cannot trap a signal ignored on entry
     run = subprocess.Popen(["bash", str(NETLAB), "run", "--name", name, "--delay-ms", "5", "--",
                             "bash", "-c", "echo up; exec sleep 60"],
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     assert run.stdout.readline().strip() == "up", run.stderr.read()
     assert len(namespaces(name)) == 3
     run.send_signal(signal.SIGINT)
