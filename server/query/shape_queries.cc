@@ -291,6 +291,11 @@ const RepresentationQueries* RowOf(const scene::Shape& shape) {
   return type >= 0 && type < static_cast<int>(ShapeType::kCount) ? &kRepresentations[type] : nullptr;
 }
 
+// A sweep with nothing to answer: a non-finite end or radius, a negative radius, no motion.
+bool IsEmptySweep(const Vector3& a_B, const Vector3& b_B, double r) {
+  return !a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || !std::isfinite(r) || a_B == b_B;
+}
+
 }  // namespace
 
 ShapeProbe ProbeShape(const scene::Shape& shape, const Vector3& p_B, double max_distance) {
@@ -304,9 +309,7 @@ ShapeProbe ProbeShape(const scene::Shape& shape, const Vector3& p_B, double max_
 ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const Vector3& b_B,
                             double r) {
   const RepresentationQueries* row = RowOf(shape);
-  if (row == nullptr || !a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || !std::isfinite(r) || a_B == b_B) {
-    return {};
-  }
+  if (row == nullptr || IsEmptySweep(a_B, b_B, r)) return {};
   return row->sweep(shape, a_B, b_B, r);
 }
 
@@ -314,7 +317,7 @@ ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const
                             const GatheredMesh& near) {
   const auto* mesh = std::get_if<MeshShape>(&shape);
   if (mesh == nullptr) return SweepSphereShape(shape, a_B, b_B, r);
-  if (!a_B.allFinite() || !b_B.allFinite() || !(r >= 0) || !std::isfinite(r) || a_B == b_B) return {};
+  if (IsEmptySweep(a_B, b_B, r)) return {};
   return SweepMesh(*mesh, a_B, b_B, r, &near);
 }
 
