@@ -149,5 +149,6 @@ def test_out_of_descriptors_accept_backs_off_instead_of_spinning(bin_dir):
                     assert client.scene().object("box")
                 break
             except (hapticd.ConnectionClosed, hapticd.Timeout, OSError):
+                assert server.process.poll() is None, f"the server exited: {server.stderr_text()[-2000:]}"
                 assert time.monotonic() < deadline, "not served after the descriptors came back"
                 time.sleep(0.2)
