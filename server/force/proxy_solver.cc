@@ -1,11 +1,8 @@
 #include "server/force/proxy_solver.h"
 
-#include <bit>
+#include <array>
 #include <cmath>
-#include <limits>
-
-#include <Eigen/Dense>
-
+#include <span>
 
 namespace hapticd::force {
 namespace {
@@ -21,63 +18,18 @@ constexpr double kArrived = 1e-12;
 constexpr double kRestingGap = 1e-6;
 // Push-outs per tick: one per object the proxy can be wedged between.
 constexpr int kMaxPushes = 3;
-// Constraint violations smaller than this (m) count as satisfied.
-constexpr double kFeasibility = 1e-12;
 // What a neighbourhood holds beyond the sphere around the expected motion (the segment
 // from the proxy to where it would go on as it went): this share of the motion's
 // length, and this much more (m).
 constexpr double kGatherMotionMargin = 0.1;
 constexpr double kGatherMargin = 2e-5;
 
-bool Satisfies(const Vector3& x, const ProxyPlane* planes, int num_planes) {
-  for (int i = 0; i < num_planes; ++i) {
-    if (planes[i].normal.dot(x) < planes[i].offset - kFeasibility) return false;
-  }
-  return true;
-}
-
-// Point nearest goal on the given planes (all active): x = goal + N lambda with the
-// normal equations (N^T N) lambda = offsets - N^T goal. False when the planes are
-// dependent (a parallel pair, three through one line) or one of them would pull the
-// point towards its inside (lambda < 0: that plane is not active).
-template <int kCount>
-bool ProjectOntoActive(const Vector3& goal, const ProxyPlane* const* active, Vector3* x) {
-  Eigen::Matrix<double, 3, kCount> normals;
-  Eigen::Matrix<double, kCount, 1> offsets;
-  for (int i = 0; i < kCount; ++i) {
-    normals.col(i) = active[i]->normal;
-    offsets[i] = active[i]->offset - active[i]->normal.dot(goal);
-  }
-  const Eigen::Matrix<double, kCount, kCount> gram = normals.transpose() * normals;
-  if (!(std::abs(gram.determinant()) > 1e-12)) return false;
-  const Eigen::Matrix<double, kCount, 1> lambda = gram.inverse() * offsets;
-  if ((lambda.array() < 0).any()) return false;
-  *x = goal + normals * lambda;
-  return true;
-}
-
-// The subset's planes (bit i: plane i active) projected onto.
-bool ProjectOntoSubset(const Vector3& goal, const ProxyPlane* planes, int num_planes, int subset,
-                       Vector3* x) {
-  const ProxyPlane* active[kMaxProxyPlanes];
-  int count = 0;
-  for (int i = 0; i < num_planes; ++i) {
-    if (subset & (1 << i)) active[count++] = &planes[i];
-  }
-  switch (count) {
-    case 1: return ProjectOntoActive<1>(goal, active, x);
-    case 2: return ProjectOntoActive<2>(goal, active, x);
-    case 3: return ProjectOntoActive<3>(goal, active, x);
-    default: return false;
-  }
-}
-
 // A plane already among the constraints: meeting it again means the sweep and the
 // constraints disagree, and another pass would only repeat itself.
 bool IsKnown(const ProxyMove& move, const Vector3& normal, double offset) {
   for (int i = 0; i < move.num_planes; ++i) {
     if (move.planes[i].normal.dot(normal) > 1 - 1e-12 &&
-        std::abs(move.planes[i].offset - offset) <= kFeasibility) {
+        std::abs(move.planes[i].offset - offset) <= geometry::kHalfSpaceFeasibility) {
       return true;
     }
   }
@@ -85,21 +37,6 @@ bool IsKnown(const ProxyMove& move, const Vector3& normal, double offset) {
 }
 
 }  // namespace
-
-Vector3 ProjectOntoPlanes(const Vector3& goal, const ProxyPlane* planes, int num_planes) {
-  if (Satisfies(goal, planes, num_planes)) return goal;
-  Vector3 best = goal;
-  double best_distance = std::numeric_limits<double>::infinity();
-  for (int subset = 1; subset < (1 << num_planes); ++subset) {
-    if (std::popcount(static_cast<unsigned>(subset)) > 3) continue;
-    Vector3 x;
-    if (!ProjectOntoSubset(goal, planes, num_planes, subset, &x)) continue;
-    if (!Satisfies(x, planes, num_planes)) continue;
-    const double distance = (x - goal).squaredNorm();
-    if (distance < best_distance) best_distance = distance, best = x;
-  }
-  return best;
-}
 
 void GatherAlong(const scene::SceneSnapshot& scene, query::Neighbourhood& near, const Vector3& x, double r,
                  const Vector3& expected_motion) {
@@ -144,9 +81,11 @@ ProxyMove MoveProxy(const query::Neighbourhood& near, const Vector3& start, cons
   ProxyMove move;
   move.position = start;
   if (!start.allFinite() || !goal.allFinite() || !(r >= 0)) return move;
+  // the planes met, as the constraints the sub-goal must satisfy
+  std::array<geometry::HalfSpace, kMaxProxyPlanes> constraints;
   for (int pass = 0; pass < kMaxPasses; ++pass) {
     const Vector3 target =
-        ProjectOntoPlanes(goal, move.planes.data(), move.num_planes);
+        geometry::NearestPointInHalfSpaces(goal, std::span(constraints.data(), move.num_planes));
     const Vector3 motion = target - move.position;
     if (motion.norm() <= kArrived) return move;
     const query::SceneSweep sweep = query::SweepSphereScene(near, move.position, target, r);
@@ -161,8 +100,8 @@ ProxyMove MoveProxy(const query::Neighbourhood& near, const Vector3& start, cons
       move.overflow = true;
       return move;
     }
-    ProxyPlane& plane = move.planes[move.num_planes++];
-    plane = {sweep.normal_W, offset, sweep.point_W, sweep.object, sweep.triangle};
+    constraints[move.num_planes] = {sweep.normal_W, offset};
+    move.planes[move.num_planes++] = {sweep.normal_W, offset, sweep.point_W, sweep.object, sweep.triangle};
   }
   move.overflow = true;
   return move;

@@ -15,6 +15,7 @@
 
 #include <array>
 
+#include "server/geometry/half_spaces.h"
 #include "server/query/neighbourhood.h"
 #include "server/scene/scene_snapshot.h"
 
@@ -34,8 +35,9 @@ struct ProxyPlane {
 };
 
 // Planes a proxy may meet in one tick; the nearest point to the goal rests on at most
-// three of them (a corner), the others are satisfied on the way.
-constexpr int kMaxProxyPlanes = 8;
+// three of them (a corner), the others are satisfied on the way
+// (geometry::NearestPointInHalfSpaces).
+constexpr int kMaxProxyPlanes = geometry::kMaxHalfSpaces;
 
 struct ProxyMove {
   Vector3 position = Vector3::Zero();  // where the proxy ended
@@ -74,11 +76,5 @@ Vector3 CarryProxy(const scene::SceneSnapshot& scene, const Vector3& x, double r
 // (gathered_mesh.h). Real-time safe.
 void GatherAlong(const scene::SceneSnapshot& scene, query::Neighbourhood& near, const Vector3& x, double r,
                  const Vector3& expected_motion);
-
-// The point nearest goal with normal_i . x >= offset_i for the given planes (Ruspini's
-// sub-goal), by trying every subset of at most three active planes and keeping the
-// nearest point that satisfies them all; dependent subsets (parallel planes) are
-// skipped. At most kMaxProxyPlanes planes.
-Vector3 ProjectOntoPlanes(const Vector3& goal, const ProxyPlane* planes, int num_planes);
 
 }  // namespace hapticd::force
