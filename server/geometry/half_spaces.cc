@@ -1,42 +1,50 @@
 #include "server/geometry/half_spaces.h"
 
 #include <bit>
-#include <cmath>
 #include <limits>
-
-#include <Eigen/Dense>
 
 namespace hapticd::geometry {
 namespace {
 
 // Point nearest goal on the given planes (all active): x = goal + N lambda with
-// N^T x = offsets. False when the planes are dependent (det N^T N <= 1e-12: a parallel
-// pair, three through one line) or one of them would pull the point towards its inside
-// (lambda < 0: that plane is not active). Solved through a QR factorisation of N with
-// column pivoting (N P = Q R), not the normal equations: N^T N squares N's condition,
-// and the facets of a fine mesh meet at angles small enough that the point it gave fell
-// outside its own planes by more than kHalfSpaceFeasibility.
-template <int kCount>
-bool ProjectOntoActive(const Vector3& goal, const HalfSpace* const* active, Vector3* x) {
-  using Normals = Eigen::Matrix<double, 3, kCount>;
-  using Coefficients = Eigen::Matrix<double, kCount, 1>;
-  Normals normals;
-  Coefficients shortfalls;  // offset_i - normal_i . goal
-  for (int i = 0; i < kCount; ++i) {
-    normals.col(i) = active[i]->normal;
-    shortfalls[i] = active[i]->offset - active[i]->normal.dot(goal);
+// N^T x = offsets (N: the unit normals as columns). False when the planes are dependent
+// (det N^T N <= 1e-12: a parallel pair, three through one line) or one of them would
+// pull the point towards its inside (lambda < 0: that plane is not active). Solved in
+// closed form from N itself (an orthogonalised pair; Cramer's rule for three), not from
+// the normal equations: N^T N squares N's condition, and the facets of a fine mesh meet
+// at angles small enough that the point it gave fell outside its own planes by more
+// than kHalfSpaceFeasibility.
+bool ProjectOntoActive(const Vector3& goal, const HalfSpace* const* active, int count, Vector3* x) {
+  // shortfall_i = offset_i - n_i . goal: how far the goal is to be moved along n_i
+  const auto shortfall = [&](int i) { return active[i]->offset - active[i]->normal.dot(goal); };
+  if (count == 1) {
+    const double s = shortfall(0);
+    if (!(s >= 0)) return false;
+    *x = goal + s * active[0]->normal;
+    return true;
   }
-  const Eigen::ColPivHouseholderQR<Normals> qr(normals);
-  const Eigen::Matrix<double, kCount, kCount> r = qr.matrixR().template topLeftCorner<kCount, kCount>();
-  if (!(r.diagonal().prod() * r.diagonal().prod() > 1e-12)) return false;
-  const auto upper = r.template triangularView<Eigen::Upper>();
-  // the step x - goal = Q [y; 0] with R^T y = P^T shortfalls; lambda = P R^-1 y
-  const Coefficients y = upper.transpose().solve(qr.colsPermutation().transpose() * shortfalls);
-  const Coefficients lambda = qr.colsPermutation() * upper.solve(y);
-  if (!((lambda.array() >= 0).all())) return false;
-  Vector3 step = Vector3::Zero();
-  step.template head<kCount>() = y;
-  *x = goal + qr.householderQ() * step;
+  const Vector3& n1 = active[0]->normal;
+  const Vector3& n2 = active[1]->normal;
+  if (count == 2) {
+    // n2 = c n1 + u with u orthogonal to n1; the step is s1 n1 + y u / |u|
+    const double c = n1.dot(n2);
+    const Vector3 u = n2 - c * n1;
+    const double u2 = u.squaredNorm();
+    if (!(u2 > 1e-12)) return false;
+    const double s1 = shortfall(0), s2 = shortfall(1);
+    // lambda_2 = (s2 - c s1) / |u|^2, lambda_1 = (s1 - c s2) / |u|^2
+    if (!(s2 - c * s1 >= 0) || !(s1 - c * s2 >= 0)) return false;
+    *x = goal + s1 * n1 + ((s2 - c * s1) / u2) * u;
+    return true;
+  }
+  const Vector3& n3 = active[2]->normal;
+  const Vector3 c23 = n2.cross(n3), c31 = n3.cross(n1), c12 = n1.cross(n2);
+  const double det = n1.dot(c23);
+  if (!(det * det > 1e-12)) return false;
+  // N^-1 has rows c23, c31, c12 over det: step = N^-T s, lambda = N^-1 step
+  const Vector3 step = (shortfall(0) * c23 + shortfall(1) * c31 + shortfall(2) * c12) / det;
+  if (!(c23.dot(step) / det >= 0) || !(c31.dot(step) / det >= 0) || !(c12.dot(step) / det >= 0)) return false;
+  *x = goal + step;
   return true;
 }
 
@@ -47,12 +55,7 @@ bool ProjectOntoSubset(const Vector3& goal, std::span<const HalfSpace> half_spac
   for (int i = 0; i < static_cast<int>(half_spaces.size()); ++i) {
     if (subset & (1 << i)) active[count++] = &half_spaces[i];
   }
-  switch (count) {
-    case 1: return ProjectOntoActive<1>(goal, active, x);
-    case 2: return ProjectOntoActive<2>(goal, active, x);
-    case 3: return ProjectOntoActive<3>(goal, active, x);
-    default: return false;
-  }
+  return count >= 1 && count <= 3 && ProjectOntoActive(goal, active, count, x);
 }
 
 }  // namespace

@@ -31,7 +31,7 @@ void Neighbourhood::Gather(const scene::SceneSnapshot& scene, const Vector3& a_W
   // few more than the region's: nothing is lost by asking them)
   bool fits = true;
   const geometry::Aabb segment_box{a_W.cwiseMin(b_W), a_W.cwiseMax(b_W)};
-  scene.ForEachObjectNear(segment_box.Inflated(radius), [&](int i) {
+  scene.ForEachObjectNear(segment_box.Inflated(radius), near_cache_, [&](int i) {
     if (!geometry::WorkMeter::Charge(1)) return fits = false;
     const scene::SceneObject& object = scene.object(i);
     if (geometry::CalcAabbAabbDistanceSquared(object.bounds_W, segment_box) > radius * radius) return true;

@@ -116,6 +116,7 @@ class Neighbourhood {
   int num_objects_ = 0;
   std::vector<geometry::PreparedTriangle> triangles_;
   int num_triangles_ = 0;
+  scene::NearCache near_cache_;  // the broad phase's memory of where it gathered
   mutable int64_t local_answers_ = 0;
   mutable int64_t scene_answers_ = 0;
 };

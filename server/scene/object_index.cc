@@ -12,6 +12,19 @@ bool ObjectIndex::IsBounded(const geometry::Aabb& bounds) {
   return !bounds.empty() && bounds.min.allFinite() && bounds.max.allFinite();
 }
 
+void ObjectIndex::Remember(const Part& part, const geometry::Aabb& box, NearCache& cache) {
+  cache.generation_ = part.generation;
+  cache.region_ = box.Inflated(NearCache::kMargin);
+  cache.count_ = 0;
+  part.tree.ForEachOverlap(cache.region_, [&](int proxy) {
+    if (cache.count_ == NearCache::kCapacity) return false;
+    cache.proxies_[cache.count_++] = proxy;
+    return true;
+  });
+  // a full cache may have left some out
+  if (cache.count_ == NearCache::kCapacity) cache.generation_ = 0;
+}
+
 template <typename T>
 T& ObjectIndex::Writable(std::shared_ptr<const T>& shared) {
   if (shared.use_count() > 1) shared = std::make_shared<T>(*shared);
@@ -77,8 +90,8 @@ void ObjectIndex::Erase(int object) {
   std::vector<Entry>& entries = Writable(entries_);
   entries.erase(entries.begin() + object);
   // the objects after it move down one index
-  for (auto& part : parts_) {
-    for (int& o : Writable(part).object_of_proxy) {
+  for (const PartId id : {kStatic, kRecent, kKinematic}) {
+    for (int& o : WritablePart(id).object_of_proxy) {
       if (o > object) --o;
     }
   }

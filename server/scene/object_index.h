@@ -14,7 +14,16 @@
 // tree of recent ones, which joins the large one (one copy of it) every kMaxRecent adds.
 // A kinematic move changes its tree only when the object leaves its fat box
 // (kFatMargin). Read by any thread; ForEachNear never allocates.
+//
+// A caller that asks about nearly the same place again and again (an avatar, tick after
+// tick) keeps a NearCache: the static objects within kMargin of where it last asked.
+// While its queries stay inside that region and the large static tree is the same, they
+// test the few remembered objects instead of walking the tree, so a tick in a scene of
+// 10,000 objects costs about what it costs in a scene of ten.
 
+#include <array>
+#include <atomic>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -22,6 +31,26 @@
 #include "server/geometry/broad_phase.h"
 
 namespace hapticd::scene {
+
+class ObjectIndex;
+
+// One caller's memory of the large static tree around its last query (see above). Used
+// by one thread at a time; holds no pointer into the index.
+class NearCache {
+ public:
+  // The most objects remembered: a region holding more is not remembered (its queries
+  // walk the tree).
+  static constexpr int kCapacity = 64;
+  // How far (m) the remembered region reaches past the query's box.
+  static constexpr double kMargin = 0.01;
+
+ private:
+  friend class ObjectIndex;
+  uint64_t generation_ = 0;  // of the static tree remembered; 0: nothing
+  geometry::Aabb region_ = geometry::Aabb::Empty();
+  int count_ = 0;
+  std::array<int, kCapacity> proxies_{};
+};
 
 class ObjectIndex {
  public:
@@ -60,12 +89,38 @@ class ObjectIndex {
       if (!going) return;
     }
   }
+  // The same, with the static tree's objects taken from cache where it remembers the
+  // region (and remembering it first where it does not). Never allocates.
+  template <typename Visit>
+  void ForEachNear(const geometry::Aabb& box, NearCache& cache, Visit visit) const {
+    for (const int object : unbounded_) {
+      if (!visit(object)) return;
+    }
+    bool going = true;
+    for (const PartId id : {kRecent, kKinematic}) {
+      const Part& part = *parts_[id];
+      part.tree.ForEachOverlap(box, [&](int proxy) { return going = visit(part.object_of_proxy[proxy]); });
+      if (!going) return;
+    }
+    const Part& part = *parts_[kStatic];
+    if (cache.generation_ != part.generation || !Contains(cache.region_, box)) Remember(part, box, cache);
+    if (cache.generation_ != part.generation) {
+      part.tree.ForEachOverlap(box, [&](int proxy) { return visit(part.object_of_proxy[proxy]); });
+      return;
+    }
+    for (int k = 0; k < cache.count_; ++k) {
+      const int proxy = cache.proxies_[k];
+      if (geometry::AabbsOverlap(part.tree.box(proxy), box) && !visit(part.object_of_proxy[proxy])) return;
+    }
+  }
 
  private:
   // One tree and the object each of its proxies (node indices) stands for.
   struct Part {
     geometry::DynamicAabbTree tree{/*capacity=*/16, kFatMargin};
     std::vector<int> object_of_proxy;
+    // New with every change (never 0): a NearCache remembers the part by it.
+    uint64_t generation = NextGeneration();
   };
   enum PartId : int { kStatic, kRecent, kKinematic, kNumParts };
   // Where an object is: its proxy in a part's tree, or aside (proxy -1).
@@ -75,11 +130,25 @@ class ObjectIndex {
   };
 
   static bool IsBounded(const geometry::Aabb& bounds);
+  static uint64_t NextGeneration() {
+    static std::atomic<uint64_t> last{0};
+    return ++last;
+  }
+  static bool Contains(const geometry::Aabb& outer, const geometry::Aabb& inner) {
+    return (outer.min.array() <= inner.min.array()).all() && (inner.max.array() <= outer.max.array()).all();
+  }
+  // Fills cache with the static part's objects within NearCache::kMargin of box; where
+  // more are there than it holds, it is left remembering nothing.
+  static void Remember(const Part& part, const geometry::Aabb& box, NearCache& cache);
   // The part or the entries, to be changed: copied first when a copy of the index
   // shares them (only the builder's thread makes copies, so a count of one stays one).
   template <typename T>
   static T& Writable(std::shared_ptr<const T>& shared);
-  Part& WritablePart(PartId part) { return Writable(parts_[part]); }
+  Part& WritablePart(PartId id) {
+    Part& part = Writable(parts_[id]);
+    part.generation = NextGeneration();
+    return part;
+  }
   // Puts object (whose entry exists) in part's tree or aside; Detach takes it out again.
   void Attach(int object, const geometry::Aabb& bounds, PartId part);
   void Detach(int object);

@@ -61,6 +61,12 @@ class SceneSnapshot {
   void ForEachObjectNear(const geometry::Aabb& box, Visit visit) const {
     index_.ForEachNear(box, visit);
   }
+  // The same, for a caller that asks about nearly the same place each time (an avatar):
+  // cache remembers the region (object_index.h).
+  template <typename Visit>
+  void ForEachObjectNear(const geometry::Aabb& box, NearCache& cache, Visit visit) const {
+    index_.ForEachNear(box, cache, visit);
+  }
   // The same objects as indices in scene order (allocates: for the control thread).
   std::vector<int> ObjectsNear(const geometry::Aabb& box) const;
 

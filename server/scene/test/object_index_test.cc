@@ -1,7 +1,8 @@
 // The scene's broad phase against a scan of every box, through random inserts, moves
 // (within the fat margin and beyond it), changes between static and kinematic and
-// between bounded and unbounded, and erasures; and copies (a snapshot's) that keep
-// answering for the scene they were made from while the original changes.
+// between bounded and unbounded, and erasures; copies (a snapshot's) that keep
+// answering for the scene they were made from while the original changes; and a
+// caller's cache of the static tree asked through all of it.
 #include "server/scene/object_index.h"
 
 #include <gtest/gtest.h>
@@ -36,6 +37,16 @@ std::vector<int> Scan(const Model& model, const Aabb& query) {
 std::vector<int> Near(const ObjectIndex& index, const Aabb& query) {
   std::vector<int> found;
   index.ForEachNear(query, [&](int i) {
+    found.push_back(i);
+    return true;
+  });
+  std::sort(found.begin(), found.end());
+  return found;
+}
+
+std::vector<int> Near(const ObjectIndex& index, const Aabb& query, NearCache& cache) {
+  std::vector<int> found;
+  index.ForEachNear(query, cache, [&](int i) {
     found.push_back(i);
     return true;
   });
@@ -113,11 +124,71 @@ TEST(ObjectIndex, AnswersAsAScanThroughEveryEdit) {
   }
 }
 
+TEST(ObjectIndex, ACachedWalkAnswersAsAScanThroughEveryEdit) {
+  // an avatar's queries: a small box drifting a little each step, now and then jumping,
+  // while objects are added, moved and erased, and copies of the index are asked with
+  // the same cache (a new snapshot each tick)
+  Random random(8);
+  ObjectIndex index;
+  Model model;
+  std::vector<bool> kinematic;
+  NearCache cache;
+  Vector3 avatar = Vector3::Zero();
+  int found = 0;
+  for (int i = 0; i < 600; ++i) {
+    model.boxes.push_back(random.Box());
+    kinematic.push_back(random.Int(0, 9) == 0);
+    index.Insert(i, model.boxes.back(), kinematic.back());
+  }
+  for (int step = 0; step < 6000; ++step) {
+    const int n = static_cast<int>(model.boxes.size());
+    const int op = random.Int(0, 19);
+    // edits land where the cache looks half the time: an object near the avatar, or a
+    // new box there
+    const std::vector<int> around = Scan(model, {avatar - Vector3::Constant(0.1), avatar + Vector3::Constant(0.1)});
+    const int i = around.empty() || random.Int(0, 1) == 0 ? random.Int(0, n - 1)
+                                                          : around[random.Int(0, static_cast<int>(around.size()) - 1)];
+    const Aabb box = random.Int(0, 1) == 0 ? random.Box() : Aabb{avatar - Vector3::Constant(0.01), avatar};
+    if (op == 0) {
+      model.boxes.push_back(box);
+      kinematic.push_back(random.Int(0, 4) == 0);
+      index.Insert(n, model.boxes.back(), kinematic.back());
+    } else if (op <= 2) {
+      if (op == 2) model.boxes[i] = box;
+      index.Move(i, model.boxes[i], kinematic[i]);
+    } else if (op == 3) {
+      model.boxes.erase(model.boxes.begin() + i);
+      kinematic.erase(kinematic.begin() + i);
+      index.Erase(i);
+    }
+    avatar += (random.Int(0, 99) == 0 ? 0.5 : 0.002) * random.Point();
+    avatar = avatar.cwiseMax(Vector3::Constant(-1)).cwiseMin(Vector3::Constant(1));
+    const double size = random.Uniform(0, 0.06);
+    const Aabb query{avatar - Vector3::Constant(size), avatar + Vector3::Constant(size)};
+    const std::vector<int> want = Scan(model, query);
+    const ObjectIndex snapshot = index;
+    ASSERT_EQ(Near(snapshot, query, cache), want) << "step " << step;
+    found += static_cast<int>(want.size());
+  }
+  EXPECT_GT(found, 6000);
+  // a query no cache can hold (every object) and then a small one again
+  const Aabb everything{Vector3::Constant(-2), Vector3::Constant(2)};
+  EXPECT_EQ(Near(index, everything, cache), Scan(model, everything));
+  const Aabb small{Vector3::Constant(-0.05), Vector3::Constant(0.05)};
+  EXPECT_EQ(Near(index, small, cache), Scan(model, small));
+  // an empty box finds only the unbounded objects
+  EXPECT_EQ(Near(index, Aabb::Empty(), cache), Scan(model, Aabb::Empty()));
+}
+
 TEST(ObjectIndex, AVisitThatReturnsFalseEndsTheWalk) {
   ObjectIndex index;
   for (int i = 0; i < 10; ++i) index.Insert(i, {Vector3::Zero(), Vector3::Ones()}, i % 2 == 1);
   int visits = 0;
   index.ForEachNear({Vector3::Zero(), Vector3::Ones()}, [&](int) { return ++visits < 3; });
+  EXPECT_EQ(visits, 3);
+  NearCache cache;
+  visits = 0;
+  index.ForEachNear({Vector3::Zero(), Vector3::Ones()}, cache, [&](int) { return ++visits < 3; });
   EXPECT_EQ(visits, 3);
 }
 
