@@ -12,17 +12,17 @@ bool ObjectIndex::IsBounded(const geometry::Aabb& bounds) {
   return !bounds.empty() && bounds.min.allFinite() && bounds.max.allFinite();
 }
 
-void ObjectIndex::Remember(const Part& part, const geometry::Aabb& box, NearCache& cache) {
-  cache.generation_ = part.generation;
-  cache.region_ = box.Inflated(NearCache::kMargin);
-  cache.count_ = 0;
-  part.tree.ForEachOverlap(cache.region_, [&](int proxy) {
-    if (cache.count_ == NearCache::kCapacity) return false;
-    cache.proxies_[cache.count_++] = proxy;
+void ObjectIndex::Remember(const Part& part, const geometry::Aabb& box, NearCache::Tree& cache) {
+  cache.generation = part.generation;
+  cache.region = box.Inflated(NearCache::kMargin);
+  cache.count = 0;
+  part.tree.ForEachOverlap(cache.region, [&](int proxy) {
+    if (cache.count == NearCache::kCapacity) return false;
+    cache.proxies[cache.count++] = proxy;
     return true;
   });
   // a full cache may have left some out
-  if (cache.count_ == NearCache::kCapacity) cache.generation_ = 0;
+  if (cache.count == NearCache::kCapacity) cache.generation = 0;
 }
 
 template <typename T>

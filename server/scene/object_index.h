@@ -16,10 +16,11 @@
 // (kFatMargin). Read by any thread; ForEachNear never allocates.
 //
 // A caller that asks about nearly the same place again and again (an avatar, tick after
-// tick) keeps a NearCache: the static objects within kMargin of where it last asked.
-// While its queries stay inside that region and the large static tree is the same, they
-// test the few remembered objects instead of walking the tree, so a tick in a scene of
-// 10,000 objects costs about what it costs in a scene of ten.
+// tick) keeps a NearCache: the static objects (both static trees) within kMargin of
+// where it last asked. While its queries stay inside that region and a tree is the
+// same, they test the few remembered objects instead of walking it, so a tick in a scene
+// of 10,000 objects costs about what it costs in a scene of ten. The kinematic tree is
+// always walked: it changes every few moves.
 
 #include <array>
 #include <atomic>
@@ -34,22 +35,25 @@ namespace hapticd::scene {
 
 class ObjectIndex;
 
-// One caller's memory of the large static tree around its last query (see above). Used
-// by one thread at a time; holds no pointer into the index.
+// One caller's memory of the static trees around its last query (see above). Used by
+// one thread at a time; holds no pointer into the index.
 class NearCache {
  public:
-  // The most objects remembered: a region holding more is not remembered (its queries
-  // walk the tree).
+  // The most objects remembered of a tree: a region holding more is not remembered (its
+  // queries walk the tree).
   static constexpr int kCapacity = 64;
   // How far (m) the remembered region reaches past the query's box.
   static constexpr double kMargin = 0.01;
 
  private:
   friend class ObjectIndex;
-  uint64_t generation_ = 0;  // of the static tree remembered; 0: nothing
-  geometry::Aabb region_ = geometry::Aabb::Empty();
-  int count_ = 0;
-  std::array<int, kCapacity> proxies_{};
+  struct Tree {
+    uint64_t generation = 0;  // of the tree remembered; 0: nothing
+    geometry::Aabb region = geometry::Aabb::Empty();
+    int count = 0;
+    std::array<int, kCapacity> proxies{};
+  };
+  Tree static_, recent_;
 };
 
 class ObjectIndex {
@@ -97,21 +101,11 @@ class ObjectIndex {
       if (!visit(object)) return;
     }
     bool going = true;
-    for (const PartId id : {kRecent, kKinematic}) {
-      const Part& part = *parts_[id];
-      part.tree.ForEachOverlap(box, [&](int proxy) { return going = visit(part.object_of_proxy[proxy]); });
-      if (!going) return;
-    }
-    const Part& part = *parts_[kStatic];
-    if (cache.generation_ != part.generation || !Contains(cache.region_, box)) Remember(part, box, cache);
-    if (cache.generation_ != part.generation) {
-      part.tree.ForEachOverlap(box, [&](int proxy) { return visit(part.object_of_proxy[proxy]); });
-      return;
-    }
-    for (int k = 0; k < cache.count_; ++k) {
-      const int proxy = cache.proxies_[k];
-      if (geometry::AabbsOverlap(part.tree.box(proxy), box) && !visit(part.object_of_proxy[proxy])) return;
-    }
+    const Part& kinematic = *parts_[kKinematic];
+    kinematic.tree.ForEachOverlap(box, [&](int proxy) { return going = visit(kinematic.object_of_proxy[proxy]); });
+    if (!going) return;
+    if (!ForEachRemembered(*parts_[kRecent], box, cache.recent_, visit)) return;
+    ForEachRemembered(*parts_[kStatic], box, cache.static_, visit);
   }
 
  private:
@@ -137,9 +131,24 @@ class ObjectIndex {
   static bool Contains(const geometry::Aabb& outer, const geometry::Aabb& inner) {
     return (outer.min.array() <= inner.min.array()).all() && (inner.max.array() <= outer.max.array()).all();
   }
-  // Fills cache with the static part's objects within NearCache::kMargin of box; where
-  // more are there than it holds, it is left remembering nothing.
-  static void Remember(const Part& part, const geometry::Aabb& box, NearCache& cache);
+  // Fills cache with part's objects within NearCache::kMargin of box; where more are
+  // there than it holds, it is left remembering nothing.
+  static void Remember(const Part& part, const geometry::Aabb& box, NearCache::Tree& cache);
+  // ForEachNear's walk of one static part, through cache; false when a visit ended it.
+  template <typename Visit>
+  static bool ForEachRemembered(const Part& part, const geometry::Aabb& box, NearCache::Tree& cache, Visit& visit) {
+    if (cache.generation != part.generation || !Contains(cache.region, box)) Remember(part, box, cache);
+    if (cache.generation != part.generation) {
+      bool going = true;
+      part.tree.ForEachOverlap(box, [&](int proxy) { return going = visit(part.object_of_proxy[proxy]); });
+      return going;
+    }
+    for (int k = 0; k < cache.count; ++k) {
+      const int proxy = cache.proxies[k];
+      if (geometry::AabbsOverlap(part.tree.box(proxy), box) && !visit(part.object_of_proxy[proxy])) return false;
+    }
+    return true;
+  }
   // The part or the entries, to be changed: copied first when a copy of the index
   // shares them (only the builder's thread makes copies, so a count of one stays one).
   template <typename T>
