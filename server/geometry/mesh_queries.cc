@@ -1,6 +1,7 @@
 #include "server/geometry/mesh_queries.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -164,6 +165,15 @@ template <typename Key, typename WithinBound, typename LeafVisitor>
 inline int VisitChildren(const std::vector<BvhNode>& nodes, const BvhNode& node,
                          const Key key[kBvhWidth], int mask, StackEntry* stack, int& top,
                          WithinBound within, LeafVisitor visit_leaf) {
+  // none or one child: nothing to order or stack
+  if ((mask & (mask - 1)) == 0) {
+    if (mask == 0) return kPop;
+    const int c = std::countr_zero(static_cast<unsigned>(mask));
+    if (!within(key[c])) return kPop;
+    if (!node.is_leaf(c)) return node.child[c];
+    if (node.count[c] > 0 && !visit_leaf(node.first_primitive(c), node.count[c])) return kStop;
+    return kPop;
+  }
   // order the touched children by key (insertion sort of at most kBvhWidth)
   int order[kBvhWidth];
   int num = 0;
