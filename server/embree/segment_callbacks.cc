@@ -13,11 +13,11 @@ namespace {
 using geometry::Aabb;
 using geometry::TriangleHit;
 
-// The exact decision on one candidate, as the native query makes it: boxes apart
-// (exact comparisons) is a miss, otherwise the watertight test decides.
+// The exact decision on one candidate, as the native query makes it: the watertight
+// test. No box test first: Embree hands over only primitives whose guarded box the ray
+// entered, and the segment's box missed the triangle's in 5 of 27,915 candidates on the
+// speed-accuracy inputs, less than the test costs on every candidate.
 TriangleHit TestCandidate(const SegmentQuery& query, const geometry::Triangle& triangle) {
-  const Aabb segment_box{query.p.cwiseMin(query.q), query.p.cwiseMax(query.q)};
-  if (!geometry::AabbsOverlap(segment_box, Aabb::OfTriangle(triangle))) return {};
   return geometry::IntersectSegmentTriangleWatertight(query.p, query.q, triangle);
 }
 

@@ -3,7 +3,7 @@
 // Internal to the BVH queries (mesh_queries.cc, sphere_sweep.cc): the pieces of a
 // front-to-back traversal that test a node's children together. The children are tested
 // four at a time, two per vector (GCC/Clang vector extensions: SSE2 or NEON registers
-// of two doubles).
+// of two doubles), or in float, four per vector (segments: mesh_queries.cc).
 
 #include <cstdint>
 #include <cstring>
@@ -22,14 +22,22 @@ using Double2 = double __attribute__((vector_size(16)));
 using Float2 = float __attribute__((vector_size(8)));
 using Float4 = float __attribute__((vector_size(16)));
 using Mask2 = int64_t __attribute__((vector_size(16)));
+using Mask4 = int32_t __attribute__((vector_size(16)));
 static_assert(kBvhWidth % 4 == 0);
 
 inline Double2 Splat(double x) { return Double2{x, x}; }
+inline Float4 SplatFloat(float x) { return Float4{x, x, x, x}; }
+
+// Four neighbouring floats (a bound of four children), as they are.
+inline Float4 LoadFloat4(const float* bounds) {
+  Float4 f;
+  std::memcpy(&f, bounds, sizeof(f));
+  return f;
+}
 
 // One bound of four neighbouring children, widened to double (exact).
 inline void Load(const float* bounds, Double2& low, Double2& high) {
-  Float4 f;
-  std::memcpy(&f, bounds, sizeof(f));
+  const Float4 f = LoadFloat4(bounds);
   low = __builtin_convertvector(Float2(__builtin_shufflevector(f, f, 0, 1)), Double2);
   high = __builtin_convertvector(Float2(__builtin_shufflevector(f, f, 2, 3)), Double2);
 }

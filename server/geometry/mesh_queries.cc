@@ -1,9 +1,11 @@
 #include "server/geometry/mesh_queries.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 
 #include "server/geometry/bvh_simd.h"
 #include "server/geometry/exact_predicates.h"
@@ -23,8 +25,10 @@ struct StackEntry {
   double key;  // entry t of a segment, or squared distance of a point
 };
 
-// The segment p -> q, prepared for slab tests.
+// The segment p -> q, prepared for slab tests in double precision: the fallback for
+// segments that float cannot carry (see FloatSegmentSlabs).
 struct SegmentSlabs {
+  using Key = double;
   Double2 origin[3];
   Double2 inv_dir[3];
   bool negative[3];  // direction sign bit: the near slab plane is the upper one
@@ -37,38 +41,117 @@ struct SegmentSlabs {
       negative[a] = std::signbit(d);
     }
   }
-};
 
-// Which children of `node` the segment touches for t in [0, t_max]: bit c for child c,
-// with its entry t in t_entry[c]. A zero direction component gives infinite slab
-// distances, or NaN where the origin lies on the slab plane; the selects
-// `x > acc ? x : acc` skip the NaN, which leaves that slab unbounded, as it should be.
-inline int IntersectChildren(const BvhNode& node, const SegmentSlabs& s, double t_max,
-                             double t_entry[kBvhWidth]) {
-  int mask = 0;
-  for (int c = 0; c < kBvhWidth; c += 4) {
-    Double2 near[2] = {Splat(0), Splat(0)};
-    Double2 far[2] = {Splat(t_max), Splat(t_max)};
-    for (int a = 0; a < 3; ++a) {
-      Double2 near_plane[2], far_plane[2];
-      Load((s.negative[a] ? node.hi[a] : node.lo[a]) + c, near_plane[0], near_plane[1]);
-      Load((s.negative[a] ? node.lo[a] : node.hi[a]) + c, far_plane[0], far_plane[1]);
+  // Whether a child entered at `key` (its entry t) is still before the end t_max.
+  static bool Within(double key, double t_max) { return key <= t_max * kSlabSlack; }
+
+  // Which children of `node` the segment touches for t in [0, t_max]: bit c for child
+  // c, with its entry t in t_entry[c]. A zero direction component gives infinite slab
+  // distances, or NaN where the origin lies on the slab plane; the selects
+  // `x > acc ? x : acc` skip the NaN, which leaves that slab unbounded, as it should be.
+  int IntersectChildren(const BvhNode& node, double t_max, double t_entry[kBvhWidth]) const {
+    int mask = 0;
+    for (int c = 0; c < kBvhWidth; c += 4) {
+      Double2 near[2] = {Splat(0), Splat(0)};
+      Double2 far[2] = {Splat(t_max), Splat(t_max)};
+      for (int a = 0; a < 3; ++a) {
+        Double2 near_plane[2], far_plane[2];
+        Load((negative[a] ? node.hi[a] : node.lo[a]) + c, near_plane[0], near_plane[1]);
+        Load((negative[a] ? node.lo[a] : node.hi[a]) + c, far_plane[0], far_plane[1]);
+        for (int h = 0; h < 2; ++h) {
+          const Double2 t0 = (near_plane[h] - origin[a]) * inv_dir[a];
+          const Double2 t1 = (far_plane[h] - origin[a]) * inv_dir[a];
+          near[h] = t0 > near[h] ? t0 : near[h];
+          far[h] = t1 < far[h] ? t1 : far[h];
+        }
+      }
       for (int h = 0; h < 2; ++h) {
-        const Double2 t0 = (near_plane[h] - s.origin[a]) * s.inv_dir[a];
-        const Double2 t1 = (far_plane[h] - s.origin[a]) * s.inv_dir[a];
-        near[h] = t0 > near[h] ? t0 : near[h];
-        far[h] = t1 < far[h] ? t1 : far[h];
+        const Mask2 touched = near[h] <= far[h] * kSlabSlack;
+        t_entry[c + 2 * h] = near[h][0];
+        t_entry[c + 2 * h + 1] = near[h][1];
+        mask |= (touched[0] ? 1 << (c + 2 * h) : 0) | (touched[1] ? 2 << (c + 2 * h) : 0);
       }
     }
-    for (int h = 0; h < 2; ++h) {
-      const Mask2 touched = near[h] <= far[h] * kSlabSlack;
-      t_entry[c + 2 * h] = near[h][0];
-      t_entry[c + 2 * h + 1] = near[h][1];
-      mask |= (touched[0] ? 1 << (c + 2 * h) : 0) | (touched[1] ? 2 << (c + 2 * h) : 0);
+    return mask;
+  }
+};
+
+// The segment p -> q, prepared for slab tests in float, four children per vector, with
+// every rounding taken against missing a box (after Ize 2013, "Robust BVH ray
+// traversal"):
+//  - the origin is rounded to float and widened, o_lo <= p <= o_hi, and each slab plane
+//    subtracts the one that moves its distance outwards (the near plane the origin
+//    ahead of p, the far plane the one behind), so the float slab is never narrower
+//    than the exact one, and its distances have the exact signs;
+//  - what is left is relative: the subtraction, the product, 1 / d rounded to double
+//    and then to float, and t_max rounded to float, each within 2^-24, so an entry t
+//    is at most (1 + 3.01 2^-24) times its exact value and an exit t at least
+//    (1 - 3.01 2^-24) times; comparing entry <= exit (1 + 2^-20) covers their ratio and
+//    the rounding of that product with room to spare;
+//  - a product that underflows has an absolute error below 2^-149, which kFloatFloor
+//    covers.
+// A zero direction component gives infinite slab distances, or NaN where the plane
+// meets the rounded origin; the selects skip the NaN, which leaves that slab unbounded
+// (conservative). Float carries this only for coordinates within +-1e30 and direction
+// components 0 or of at least 1e-37 in magnitude (1 / d then a normal float); `usable`
+// says so, and the traversal falls back to SegmentSlabs where it is false.
+struct FloatSegmentSlabs {
+  using Key = float;
+  static constexpr float kFloatSlack = 1 + 1.0f / (1 << 20);
+  static constexpr float kFloatFloor = 1e-30f;
+  static constexpr double kMaxCoordinate = 1e30;
+  static constexpr double kMinDirection = 1e-37;
+
+  Float4 near_origin[3];
+  Float4 far_origin[3];
+  Float4 inv_dir[3];
+  int near_row[3];  // row of the node's bounds (lo[a] = a, hi[a] = 3 + a) of the near plane
+  int far_row[3];
+  bool usable = true;
+
+  FloatSegmentSlabs(const Vector3& p, const Vector3& q) {
+    for (int a = 0; a < 3; ++a) {
+      const double d = q[a] - p[a];
+      if (!(std::abs(p[a]) <= kMaxCoordinate && std::abs(q[a]) <= kMaxCoordinate) ||
+          (d != 0 && !(std::abs(d) >= kMinDirection))) {
+        usable = false;
+        return;
+      }
+      const bool negative = std::signbit(d);
+      // p rounded to float, then widened by at least an ulp each way (|o| 2^-23 is one
+      // ulp or more, FLT_MIN more than a subnormal's), each sum rounding to no less
+      const float o = static_cast<float>(p[a]);
+      const float widen = std::abs(o) * (1.0f / (1 << 23)) + std::numeric_limits<float>::min();
+      const float o_lo = o - widen;
+      const float o_hi = o + widen;
+      near_origin[a] = SplatFloat(negative ? o_lo : o_hi);
+      far_origin[a] = SplatFloat(negative ? o_hi : o_lo);
+      inv_dir[a] = SplatFloat(static_cast<float>(1 / d));
+      near_row[a] = negative ? 3 + a : a;
+      far_row[a] = negative ? a : 3 + a;
     }
   }
-  return mask;
-}
+
+  static bool Within(double key, double t_max) {
+    return key <= t_max * static_cast<double>(kFloatSlack) + static_cast<double>(kFloatFloor);
+  }
+
+  int IntersectChildren(const BvhNode& node, double t_max, float t_entry[kBvhWidth]) const {
+    static_assert(kBvhWidth == 4, "one vector of four children per node");
+    const float* rows = &node.lo[0][0];  // lo[0..2] then hi[0..2], four children each
+    Float4 near = SplatFloat(0);
+    Float4 far = SplatFloat(static_cast<float>(t_max));
+    for (int a = 0; a < 3; ++a) {
+      const Float4 t0 = (LoadFloat4(rows + 4 * near_row[a]) - near_origin[a]) * inv_dir[a];
+      const Float4 t1 = (LoadFloat4(rows + 4 * far_row[a]) - far_origin[a]) * inv_dir[a];
+      near = t0 > near ? t0 : near;
+      far = t1 < far ? t1 : far;
+    }
+    const Mask4 touched = near <= far * kFloatSlack + kFloatFloor;
+    std::memcpy(t_entry, &near, sizeof(near));
+    return (touched[0] & 1) | (touched[1] & 2) | (touched[2] & 4) | (touched[3] & 8);
+  }
+};
 
 // What VisitChildren returns instead of a node to go on with.
 constexpr int kPop = -1;   // take the next node from the stack
@@ -78,10 +161,19 @@ constexpr int kStop = -2;  // a leaf visitor ended the traversal
 // first: leaves are handed to visit_leaf as they come (which may tighten the bound),
 // then the traversal goes on into the nearest internal child still within the bound and
 // stacks the others, farthest first. Returns that child's node, kPop or kStop.
-template <typename WithinBound, typename LeafVisitor>
+template <typename Key, typename WithinBound, typename LeafVisitor>
 inline int VisitChildren(const std::vector<BvhNode>& nodes, const BvhNode& node,
-                         const double key[kBvhWidth], int mask, StackEntry* stack, int& top,
+                         const Key key[kBvhWidth], int mask, StackEntry* stack, int& top,
                          WithinBound within, LeafVisitor visit_leaf) {
+  // none or one child: nothing to order or stack
+  if ((mask & (mask - 1)) == 0) {
+    if (mask == 0) return kPop;
+    const int c = std::countr_zero(static_cast<unsigned>(mask));
+    if (!within(key[c])) return kPop;
+    if (!node.is_leaf(c)) return node.child[c];
+    if (node.count[c] > 0 && !visit_leaf(node.first_primitive(c), node.count[c])) return kStop;
+    return kPop;
+  }
   // order the touched children by key (insertion sort of at most kBvhWidth)
   int order[kBvhWidth];
   int num = 0;
@@ -113,17 +205,16 @@ inline int VisitChildren(const std::vector<BvhNode>& nodes, const BvhNode& node,
   return next >= 0 ? node.child[next] : kPop;
 }
 
-// Walks the BVH front to back along p -> q. visit(first, count) tests a leaf's
-// primitives and returns the new t_max (the segment is cut at a hit), or a negative
-// value to stop.
-template <typename LeafVisitor>
-void TraverseSegment(const MeshBvh& bvh, const Vector3& p, const Vector3& q, LeafVisitor visit) {
-  const SegmentSlabs slabs(p, q);
+// Walks the BVH front to back along the segment prepared in `slabs` (SegmentSlabs or
+// FloatSegmentSlabs). visit(first, count) tests a leaf's primitives and returns the new
+// t_max (the segment is cut at a hit), or a negative value to stop.
+template <typename Slabs, typename LeafVisitor>
+void TraverseSegmentSlabs(const MeshBvh& bvh, const Slabs& slabs, LeafVisitor visit) {
   const std::vector<BvhNode>& nodes = bvh.nodes();
   StackEntry stack[(kBvhWidth - 1) * kMaxBvhDepth];
   int top = 0;
   double t_max = 1;
-  auto within = [&](double t) { return t <= t_max * kSlabSlack; };
+  auto within = [&](double t) { return Slabs::Within(t, t_max); };
   auto visit_leaf = [&](int first, int count) {
     if (!WorkMeter::Charge(count)) return false;
     t_max = visit(first, count);
@@ -133,8 +224,8 @@ void TraverseSegment(const MeshBvh& bvh, const Vector3& p, const Vector3& q, Lea
   while (true) {
     if (!WorkMeter::Charge(1)) return;
     const BvhNode& node = nodes[current];
-    double t_entry[kBvhWidth];
-    const int mask = IntersectChildren(node, slabs, t_max, t_entry);
+    typename Slabs::Key t_entry[kBvhWidth];
+    const int mask = slabs.IntersectChildren(node, t_max, t_entry);
     current = VisitChildren(nodes, node, t_entry, mask, stack, top, within, visit_leaf);
     if (current == kStop) return;
     if (current != kPop) continue;
@@ -144,6 +235,18 @@ void TraverseSegment(const MeshBvh& bvh, const Vector3& p, const Vector3& q, Lea
       --top;
     } while (!within(stack[top].key));
     current = stack[top].node;
+  }
+}
+
+// Walks the BVH front to back along p -> q: in float where float carries the segment,
+// else in double. visit as above.
+template <typename LeafVisitor>
+void TraverseSegment(const MeshBvh& bvh, const Vector3& p, const Vector3& q, LeafVisitor visit) {
+  const FloatSegmentSlabs float_slabs(p, q);
+  if (float_slabs.usable) {
+    TraverseSegmentSlabs(bvh, float_slabs, visit);
+  } else {
+    TraverseSegmentSlabs(bvh, SegmentSlabs(p, q), visit);
   }
 }
 

@@ -93,6 +93,22 @@ bool AllFinite(const Vector3& a, const Vector3& b, const Triangle& tri) {
          tri.v2.allFinite();
 }
 
+// Whether gap > 8 eps |n| (|a| + |b|), the rounding of two plane distances n . a and
+// n . b, evaluated as written. Most crossings clear it by orders of magnitude, and
+// (|a| + |b|)^2 <= 2 (|a|^2 + |b|^2) decides those without the three square roots: with
+// every squared magnitude within [1e-100, 1e100] nothing over- or underflows, and the
+// factor 2.01 covers the rounding of both sides (a few ulps each), so gap^2 above it
+// means gap above the rounding as written. The rest compare as written.
+bool ExceedsDistanceRounding(double gap, const Vector3& n, const Vector3& a, const Vector3& b) {
+  constexpr double k = 8 * std::numeric_limits<double>::epsilon();
+  const double gap2 = gap * gap;
+  const double n2 = n.squaredNorm();
+  const double s2 = a.squaredNorm() + b.squaredNorm();
+  const auto in_range = [](double x) { return x >= 1e-100 && x <= 1e100; };
+  if (in_range(gap2) && in_range(n2) && in_range(s2) && gap2 > 2.01 * k * k * n2 * s2) return true;
+  return gap > k * n.norm() * (a.norm() + b.norm());
+}
+
 // t, u and v of a hit, once the exact signs (sides of p and q, line against the edges)
 // say that p -> q meets the triangle. Shared by the filtered and the exact decisions,
 // so that both report the same numbers.
@@ -113,10 +129,9 @@ TriangleHit CompleteSegmentHit(const Vector3& p, const Vector3& q, const Triangl
     // the rounded distances place the crossing only when they differ by more than their
     // rounding; a segment within rounding of the plane (the exact signs still say it
     // crosses) is on the plane all along, and it meets the triangle where it enters it
-    const double rounding = 8 * std::numeric_limits<double>::epsilon() * n.norm() *
-                            ((p - tri.v0).norm() + (q - tri.v0).norm());
-    hit.t = std::abs(dist_p - dist_q) > rounding ? std::clamp(dist_p / (dist_p - dist_q), 0.0, 1.0)
-                                                 : EntryWithinPlane(p, q, tri, n);
+    hit.t = ExceedsDistanceRounding(std::abs(dist_p - dist_q), n, p - tri.v0, q - tri.v0)
+                ? std::clamp(dist_p / (dist_p - dist_q), 0.0, 1.0)
+                : EntryWithinPlane(p, q, tri, n);
   }
   SetBarycentrics(volumes[0], volumes[1], volumes[2], sign_01, sign_12, sign_20, hit);
   return hit;

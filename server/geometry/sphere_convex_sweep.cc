@@ -29,14 +29,28 @@ ConvexSweepHit SweepSphereSphere(const Sphere& ball, const Vector3& a, const Vec
     t = C / (-B + std::sqrt(discriminant));
     if (!(t <= 1)) return sweep;
   }
-  // the nearest point of the ball and its normal there (+x from the ball's centre)
-  const SphereSphereResult contact = CollideSpheres(ball, {a + t * motion, 0});
+  // the nearest point of the ball and its normal there, as CollideSpheres(ball, {x, 0})
+  // gives them (+x where x is the centre), without its exact sign of the gap, which the
+  // sweep does not use; an x that overflowed goes to CollideSpheres itself
+  const Vector3 x = a + t * motion;
+  Vector3 normal;
+  Vector3 point;
+  if (x.allFinite()) {
+    const Vector3 delta = x - ball.center;
+    const double d = delta.norm();
+    normal = d > 0 ? Vector3(delta / d) : Vector3::UnitX();
+    point = ball.center + ball.radius * normal;
+  } else {
+    const SphereSphereResult contact = CollideSpheres(ball, {x, 0});
+    normal = contact.normal;
+    point = contact.point_a;
+  }
   // touching or inside at the start: only motion into the ball hits
-  if (C <= 0 && !(-motion.dot(contact.normal) > 0)) return sweep;
+  if (C <= 0 && !(-motion.dot(normal) > 0)) return sweep;
   sweep.hit = true;
   sweep.t = t;
-  sweep.point = contact.point_a;
-  sweep.normal = contact.normal;
+  sweep.point = point;
+  sweep.normal = normal;
   return sweep;
 }
 

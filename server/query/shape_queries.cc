@@ -268,9 +268,21 @@ ShapeSweep SweepAnyMesh(const scene::Shape& shape, const Vector3& a, const Vecto
   return SweepMesh(std::get<MeshShape>(shape), a, b, r, nullptr);
 }
 
+// SweepSolid<SweepAnySphere>, with its probe at a (a point sweep starting deep inside
+// goes out backwards) asked only where |a| - R < -tolerance: the probe's signed distance
+// is |a| - R evaluated alike (or 0 or a denormal where the exact sign disagrees), so
+// it can be below -tolerance only there; most sweeps start outside and skip it.
+ShapeSweep SweepSolidSphere(const scene::Shape& shape, const Vector3& a, const Vector3& b, double r) {
+  const double radius = std::get<SphereShape>(shape).radius;
+  if (r == 0 && a.norm() - radius < -geometry::kConvexSweepTolerance) {
+    return SweepSolid<SweepAnySphere>(shape, a, b, r);
+  }
+  return SweepAnySphere(shape, a, b, r);
+}
+
 using scene::ShapeType;
 constexpr std::array<RepresentationQueries, static_cast<int>(ShapeType::kCount)> kRepresentations = {{
-    {ShapeType::kSphere, ProbeAs<SphereShape, ProbeSphere>, SweepSolid<SweepAnySphere>, FindSolidFeatures},
+    {ShapeType::kSphere, ProbeAs<SphereShape, ProbeSphere>, SweepSolidSphere, FindSolidFeatures},
     {ShapeType::kBox, ProbeAs<BoxShape, ProbeBox>, SweepSolid<SweepConvex>, FindSolidFeatures},
     {ShapeType::kCapsule, ProbeAs<CapsuleShape, ProbeCapsule>, SweepSolid<SweepConvex>, FindSolidFeatures},
     {ShapeType::kPlane, ProbeAnyPlane, SweepSolid<SweepConvex>, FindSolidFeatures},

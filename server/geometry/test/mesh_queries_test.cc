@@ -205,6 +205,72 @@ TEST(MeshQueries, SegmentsAimedThroughVerticesAndEdgesNeverSlipThrough) {
   EXPECT_GT(aims, 10000);
 }
 
+// The same mesh moved by `offset` (each vertex rounded to double once).
+TriangleMesh Moved(const TriangleMesh& mesh, const Vector3& offset) {
+  std::vector<Vector3> vertices;
+  for (const Vector3& v : mesh.vertices()) vertices.push_back(v + offset);
+  return TriangleMesh(vertices, mesh.triangles());
+}
+
+// The BVH traverses segments in float: the origin is rounded to float and every slab
+// distance is rounded, so a box the exact segment touches must still be entered. Far
+// from the origin a float ulp is as large as a triangle (here 1e6 and 3e7 away, size
+// 1e-2 and 1: ulps of 0.06 and 2), and segments start on, end on and graze vertices,
+// edges and faces, long and very short.
+TEST(MeshQueries, FloatTraversalMissesNoBoxFarFromTheOrigin) {
+  std::mt19937_64 rng(21);
+  std::normal_distribution<double> normal;
+  std::uniform_real_distribution<double> unit(0, 1);
+  struct Case {
+    std::string name;
+    std::shared_ptr<const TriangleMesh> mesh;
+  };
+  const std::vector<Case> cases = {
+      {"torus at 1e6", Share(Moved(MakeTorus(0.01, 0.004, 20, 10), {1e6, -1e6, 3e5}))},
+      {"icosphere at 3e7", Share(Moved(MakeIcosphere(6, 1.0), {-3e7, 2e7, 1e7}))},
+      {"box at 1e6", Share(Moved(MakeBoxMesh({0.01, 0.02, 0.015}, 3), {1e6, 1e6, -1e6}))},
+      {"box near 0", Share(MakeBoxMesh({1e-3, 2e-3, 1.5e-3}, 3))},
+  };
+  for (const Case& c : cases) {
+    const MeshBvh bvh(c.mesh);
+    const double size = c.mesh->size();
+    const auto& vertices = c.mesh->vertices();
+    std::uniform_int_distribution<int> pick_triangle(0, c.mesh->num_triangles() - 1);
+    for (int k = 0; k < 3000; ++k) {
+      const Indices& t = c.mesh->triangles()[pick_triangle(rng)];
+      // a target on the surface: a vertex, an edge point or a face point
+      double u = unit(rng), v = unit(rng);
+      if (k % 3 == 0) u = v = 0;
+      if (k % 3 == 1) v = 1 - u;
+      if (u + v > 1) u = 1 - u, v = 1 - v;
+      const Vector3 target = (1 - u - v) * vertices[t[0]] + u * vertices[t[1]] + v * vertices[t[2]];
+      const Vector3 dir = Vector3(normal(rng), normal(rng), normal(rng)).normalized();
+      // lengths from 1e-9 to 1 of the size; the target at an end, inside or beyond
+      const double length = size * std::pow(10.0, -9 * unit(rng));
+      const double where[] = {0, 1, 0.5, unit(rng), 1 + unit(rng)};
+      const Vector3 p = target - where[k % 5] * length * dir;
+      const Vector3 q = p + length * dir;
+      if (p == q) continue;
+      ExpectSameFirstHit(bvh, p, q, c.name + " segment " + std::to_string(k));
+      if (HasFailure()) return;
+    }
+  }
+}
+
+// Segments float cannot carry (coordinates beyond 1e30, direction components below
+// 1e-37 but not zero) take the double traversal, and still match brute force.
+TEST(MeshQueries, SegmentsBeyondFloatTakeTheDoubleTraversal) {
+  const MeshBvh big(Share(MakeIcosphere(4, 1e31)));
+  ExpectSameFirstHit(big, Vector3(3e31, 1e29, -2e29), Vector3(-3e31, 0, 1e28), "beyond float");
+  ExpectSameFirstHit(big, Vector3(3e31, 0, 0), Vector3(0.5e31, 0, 0), "beyond float, axis");
+  const MeshBvh unit(Share(MakeIcosphere(4, 1.0)));
+  for (const double tiny : {1e-38, 1e-45, 1e-300}) {
+    ExpectSameFirstHit(unit, Vector3(2, 0.1, 0.2), Vector3(-2, 0.1 + tiny, 0.2), "tiny component");
+    ExpectSameFirstHit(unit, Vector3(0.1, 0.2, 2), Vector3(0.1, 0.2 - tiny, 0.5), "tiny component");
+    ExpectSameFirstHit(unit, Vector3(0.1, 0.2, 2), Vector3(0.1, 0.2 - tiny, 0.999), "tiny, short");
+  }
+}
+
 TEST(MeshQueries, DegenerateSegmentsAndNonFiniteInputMiss) {
   const MeshBvh bvh(Share(MakeIcosphere(4, 1.0)));
   const Vector3 on = bvh.mesh().vertices()[0];

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
@@ -13,6 +14,7 @@
 #include <vector>
 
 #include "server/geometry/closest_point_triangle.h"
+#include "server/geometry/exact_predicates.h"
 
 namespace hapticd::geometry {
 namespace {
@@ -502,6 +504,66 @@ TEST(SegmentTriangleWatertight, FilteredEqualsUnfiltered) {
     EXPECT_GT(hits, 200);
     EXPECT_LT(hits, 2 * 3 * kCases - 200);
   }
+}
+
+// A hit's t is where the rounded plane distances cross, dp / (dp - dq), when they differ
+// by more than their rounding 8 eps |n| (|p - v0| + |q - v0|); else where the segment,
+// taken as in the plane, enters the triangle. The rule written out here (square roots
+// and all) is the oracle for the test's shortcut that skips them, over segments whose
+// distance difference is far above, near and below the rounding (tilts of 1e-17 to
+// 1e-12 about the plane, at scales 1e-6 to 1e6).
+TEST(SegmentTriangleWatertight, HitParameterFollowsTheRoundingRule) {
+  const double eps = std::numeric_limits<double>::epsilon();
+  auto entry_within_plane = [](const Vector3& p, const Vector3& q, const Triangle& tri, const Vector3& n) {
+    const Vector3 d = q - p;
+    double lo = 0, hi = 1;
+    const Vector3* corners[3] = {&tri.v0, &tri.v1, &tri.v2};
+    for (int i = 0; i < 3; ++i) {
+      const Vector3& a = *corners[i];
+      const Vector3 inward = n.cross(*corners[(i + 1) % 3] - a);
+      const double start = inward.dot(p - a);
+      const double rate = inward.dot(d);
+      if (rate > 0) lo = std::max(lo, -start / rate);
+      if (rate < 0) hi = std::min(hi, -start / rate);
+    }
+    return lo <= hi ? lo : std::clamp(0.5 * (lo + hi), 0.0, 1.0);
+  };
+  std::mt19937_64 rng(93);
+  std::uniform_real_distribution<double> u(-1, 1), unit(0, 1);
+  int clear = 0, within = 0;
+  for (int k = 0; k < 40000; ++k) {
+    const double scale = std::pow(10.0, static_cast<int>(rng() % 13) - 6);
+    const Vector3 centre = 10 * scale * Vector3(u(rng), u(rng), u(rng));
+    const Triangle tri{centre + scale * Vector3(u(rng), u(rng), u(rng)),
+                       centre + scale * Vector3(u(rng), u(rng), u(rng)),
+                       centre + scale * Vector3(u(rng), u(rng), u(rng))};
+    const Vector3 n = (tri.v1 - tri.v0).cross(tri.v2 - tri.v0);
+    const Vector3 unit_n = n.normalized();
+    // two points over the triangle's plane, tilted across it by 1e-17 .. 1e-12 of the
+    // scale (or by a fraction of it: generic crossings)
+    const auto in_plane = [&] {
+      const double a = 1.5 * unit(rng) - 0.25, b = 1.5 * unit(rng) - 0.25;
+      return Vector3(tri.v0 + a * (tri.v1 - tri.v0) + b * (tri.v2 - tri.v0));
+    };
+    const double tilt = scale * (k % 4 == 0 ? 0.3 : std::pow(10.0, -17 + 5 * unit(rng)));
+    const Vector3 p = in_plane() + tilt * unit(rng) * unit_n;
+    const Vector3 q = in_plane() - tilt * unit(rng) * unit_n;
+    if (p == q) continue;
+    const TriangleHit hit = IntersectSegmentTriangleWatertight(p, q, tri);
+    if (!hit.hit || Orient3d(tri.v0, tri.v1, tri.v2, p) == 0 || Orient3d(tri.v0, tri.v1, tri.v2, q) == 0) continue;
+    const double dp = n.dot(p - tri.v0), dq = n.dot(q - tri.v0);
+    const double rounding = 8 * eps * n.norm() * ((p - tri.v0).norm() + (q - tri.v0).norm());
+    if (std::abs(dp - dq) > rounding) {
+      ++clear;
+      ASSERT_EQ(hit.t, std::clamp(dp / (dp - dq), 0.0, 1.0)) << k;
+    } else {
+      ++within;
+      ASSERT_EQ(hit.t, entry_within_plane(p, q, tri, n)) << k;
+    }
+  }
+  std::printf("hits: crossing clear of the rounding %d, within it %d\n", clear, within);
+  EXPECT_GT(clear, 2000);
+  EXPECT_GT(within, 200);
 }
 
 TEST(SegmentTriangleWatertight, FilteredNonFiniteInputIsAMiss) {

@@ -107,6 +107,32 @@ TEST(SweepSphereSphere, GrazingPassFollowsTheAnalyticRoot) {
   ExpectMiss(SweepSphereSphere(kUnitBall, {-2, 1 + 2 * kTolerance, 0}, {2, 1 + 2 * kTolerance, 0}, 0));
 }
 
+// The contact point and normal are CollideSpheres' at the contact centre, bit for bit,
+// over random balls and sweeps (from outside, touching, inside, grazing).
+TEST(SweepSphereSphere, ContactIsCollideSpheresAtTheContactCentre) {
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> coordinate(-3, 3), size(0, 1.5);
+  std::normal_distribution<double> normal;
+  int hits = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Sphere ball{Vector3(coordinate(rng), coordinate(rng), coordinate(rng)), size(rng)};
+    const double r = i % 2 == 0 ? 0 : size(rng);
+    Vector3 a = ball.center + Vector3(coordinate(rng), coordinate(rng), coordinate(rng));
+    // every fourth starts on the tolerance shell
+    if (i % 4 == 1) {
+      a = ball.center + (ball.radius + r + kTolerance) * Vector3(normal(rng), normal(rng), normal(rng)).normalized();
+    }
+    const Vector3 b = i % 8 == 3 ? ball.center : Vector3(a + Vector3(coordinate(rng), coordinate(rng), coordinate(rng)));
+    const ConvexSweepHit hit = SweepSphereSphere(ball, a, b, r);
+    if (!hit.hit) continue;
+    ++hits;
+    const SphereSphereResult contact = CollideSpheres(ball, {a + hit.t * (b - a), 0});
+    ASSERT_EQ(hit.normal, contact.normal) << i;
+    ASSERT_EQ(hit.point, contact.point_a) << i;
+  }
+  EXPECT_GT(hits, 2000);
+}
+
 TEST(SweepSphereConvex, BoxFaceIsReachedInOneStep) {
   // the gap 2 - 0.5 closes at 4 per unit t: one advancement to t = 0.375, one probe to confirm
   int calls = 0;

@@ -13,6 +13,7 @@
 
 #include "server/geometry/closest_point_triangle.h"
 #include "server/geometry/mesh_generators.h"
+#include "server/geometry/sphere_convex_sweep.h"
 #include "server/geometry/sphere_sweep.h"
 
 namespace hapticd::query {
@@ -167,6 +168,53 @@ TEST(SweepSphereShape, SphereMatchesTheAnalyticRoot) {
     EXPECT_NEAR((sweep.normal_B - centre.normalized()).norm(), 0, 1e-8);
   }
   EXPECT_GT(hits, 500);
+}
+
+// The sphere's sweep asks its probe at a only where a starts deep inside; the answer is
+// that of the rule written out from the public pieces (probe at a; from deep inside,
+// the kernel's sweep back from b; else the kernel's sweep), bit for bit, over random
+// sweeps starting outside, on the shell, just inside and deep inside.
+TEST(SweepSphereShape, SphereEqualsTheProbeAndKernelRule) {
+  const double tolerance = geometry::kConvexSweepTolerance;
+  const double radius = 0.7;
+  const scene::Shape ball = scene::SphereShape{radius};
+  const geometry::Sphere kernel_ball{Vector3::Zero(), radius};
+  auto rule = [&](const Vector3& a, const Vector3& b, double r) {
+    ShapeSweep out;
+    if (r == 0 && ProbeShape(ball, a, kInf).signed_distance < -tolerance) {
+      const ShapeProbe end = ProbeShape(ball, b, kInf);
+      if (!end.found || end.signed_distance < -tolerance) return out;
+      const geometry::ConvexSweepHit exit = geometry::SweepSphereSphere(kernel_ball, b, a, 0);
+      if (!exit.hit) return out;
+      return ShapeSweep{.hit = true, .t = 1 - exit.t, .point_B = exit.point, .normal_B = -exit.normal};
+    }
+    const geometry::ConvexSweepHit hit = geometry::SweepSphereSphere(kernel_ball, a, b, r);
+    if (hit.hit) out = ShapeSweep{.hit = true, .t = hit.t, .point_B = hit.point, .normal_B = hit.normal};
+    return out;
+  };
+  std::mt19937_64 random(41);
+  std::uniform_real_distribution<double> coordinate(-2, 2), unit(0, 1);
+  std::normal_distribution<double> normal;
+  int inside = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Vector3 dir = Vector3(normal(random), normal(random), normal(random)).normalized();
+    // the start's distance from the centre: anywhere, or within a few tolerances of R
+    const double shells[] = {2 * unit(random), radius - 3 * tolerance * unit(random),
+                             radius - tolerance, radius + tolerance * (2 * unit(random) - 1)};
+    const Vector3 a = shells[i % 4] * dir;
+    const Vector3 b = i % 3 == 0 ? Vector3(-a + 0.01 * dir) : Vector3(coordinate(random), coordinate(random), coordinate(random));
+    const double r = i % 5 == 0 ? 0.1 * unit(random) : 0;
+    if (a == b) continue;
+    if (r == 0 && ProbeShape(ball, a, kInf).signed_distance < -tolerance) ++inside;
+    const ShapeSweep got = SweepSphereShape(ball, a, b, r);
+    const ShapeSweep want = rule(a, b, r);
+    ASSERT_EQ(got.hit, want.hit) << i;
+    if (!want.hit) continue;
+    ASSERT_EQ(got.t, want.t) << i;
+    ASSERT_EQ(got.point_B, want.point_B) << i;
+    ASSERT_EQ(got.normal_B, want.normal_B) << i;
+  }
+  EXPECT_GT(inside, 3000);
 }
 
 // A sphere that starts touching the primitive (within the sweep tolerance) is stopped
