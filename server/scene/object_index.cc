@@ -13,16 +13,25 @@ bool ObjectIndex::IsBounded(const geometry::Aabb& bounds) {
 }
 
 void ObjectIndex::Remember(const Part& part, const geometry::Aabb& box, NearCache::Tree& cache) {
-  cache.generation = part.generation;
-  cache.region = box.Inflated(NearCache::kMargin);
-  cache.count = 0;
-  part.tree.ForEachOverlap(cache.region, [&](int proxy) {
-    if (cache.count == NearCache::kCapacity) return false;
-    cache.proxies[cache.count++] = proxy;
-    return true;
-  });
-  // a full cache may have left some out
-  if (cache.count == NearCache::kCapacity) cache.generation = 0;
+  for (; cache.margin >= NearCache::kMinMargin; cache.margin /= 2) {
+    cache.generation = part.generation;
+    cache.region = box.Inflated(cache.margin);
+    cache.count = 0;
+    part.tree.ForEachOverlap(cache.region, [&](int proxy) {
+      if (cache.count == NearCache::kCapacity) return false;
+      cache.proxies[cache.count++] = proxy;
+      return true;
+    });
+    // a full cache may have left some out: a smaller region
+    if (cache.count < NearCache::kCapacity) {
+      if (cache.count < NearCache::kCapacity / 4) cache.margin = std::min(2 * cache.margin, NearCache::kMaxMargin);
+      return;
+    }
+  }
+  // too many even within kMinMargin: remember nothing (the next query tries that margin
+  // again, and widens it once the objects thin out)
+  cache.generation = 0;
+  cache.margin = NearCache::kMinMargin;
 }
 
 template <typename T>

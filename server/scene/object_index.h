@@ -16,7 +16,7 @@
 // (kFatMargin). Read by any thread; ForEachNear never allocates.
 //
 // A caller that asks about nearly the same place again and again (an avatar, tick after
-// tick) keeps a NearCache: the static objects (both static trees) within kMargin of
+// tick) keeps a NearCache: the static objects (both static trees) within a margin of
 // where it last asked. While its queries stay inside that region and a tree is the
 // same, they test the few remembered objects instead of walking it, so a tick in a scene
 // of 10,000 objects costs about what it costs in a scene of ten. The kinematic tree is
@@ -39,16 +39,20 @@ class ObjectIndex;
 // one thread at a time; holds no pointer into the index.
 class NearCache {
  public:
-  // The most objects remembered of a tree: a region holding more is not remembered (its
-  // queries walk the tree).
+  // The most objects remembered of a tree.
   static constexpr int kCapacity = 64;
-  // How far (m) the remembered region reaches past the query's box.
-  static constexpr double kMargin = 0.01;
+  // How far (m) the remembered region reaches past the query's box: kMaxMargin (a hand
+  // at 0.2 m/s leaves it every 100 ticks), halved while the region holds more than
+  // kCapacity objects, down to kMinMargin (below it nothing is remembered: the queries
+  // walk the tree); doubled again where it holds under a quarter of that.
+  static constexpr double kMaxMargin = 0.02;
+  static constexpr double kMinMargin = 0.001;
 
  private:
   friend class ObjectIndex;
   struct Tree {
     uint64_t generation = 0;  // of the tree remembered; 0: nothing
+    double margin = kMaxMargin;
     geometry::Aabb region = geometry::Aabb::Empty();
     int count = 0;
     std::array<int, kCapacity> proxies{};
@@ -131,8 +135,8 @@ class ObjectIndex {
   static bool Contains(const geometry::Aabb& outer, const geometry::Aabb& inner) {
     return (outer.min.array() <= inner.min.array()).all() && (inner.max.array() <= outer.max.array()).all();
   }
-  // Fills cache with part's objects within NearCache::kMargin of box; where more are
-  // there than it holds, it is left remembering nothing.
+  // Fills cache with part's objects within its margin of box (see NearCache); where more
+  // are there than it holds, it is left remembering nothing.
   static void Remember(const Part& part, const geometry::Aabb& box, NearCache::Tree& cache);
   // ForEachNear's walk of one static part, through cache; false when a visit ended it.
   template <typename Visit>

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <random>
 #include <vector>
@@ -178,6 +179,27 @@ TEST(ObjectIndex, ACachedWalkAnswersAsAScanThroughEveryEdit) {
   EXPECT_EQ(Near(index, small, cache), Scan(model, small));
   // an empty box finds only the unbounded objects
   EXPECT_EQ(Near(index, Aabb::Empty(), cache), Scan(model, Aabb::Empty()));
+}
+
+TEST(ObjectIndex, ACachedWalkAnswersAsAScanWhereObjectsCrowd) {
+  // a row of 400 boxes 0.1 mm apart (more than a cache holds within any margin), sparse
+  // boxes around it, and an avatar walking from the sparse part into the row and out
+  Random random(9);
+  ObjectIndex index;
+  Model model;
+  for (int i = 0; i < 400; ++i) {
+    const Vector3 c(0.0001 * i, 0, 0);
+    model.boxes.push_back({c - Vector3::Constant(0.00004), c + Vector3::Constant(0.00004)});
+  }
+  for (int i = 0; i < 200; ++i) model.boxes.push_back(random.Box());
+  for (int i = 0; i < static_cast<int>(model.boxes.size()); ++i) index.Insert(i, model.boxes[i], false);
+  NearCache cache;
+  for (int step = 0; step < 3000; ++step) {
+    const double s = step / 3000.0;
+    const Vector3 avatar(-0.3 + s, 0.05 * std::sin(20 * s), 0);
+    const Aabb query{avatar - Vector3::Constant(0.002), avatar + Vector3::Constant(0.002)};
+    ASSERT_EQ(Near(index, query, cache), Scan(model, query)) << "step " << step;
+  }
 }
 
 TEST(ObjectIndex, AVisitThatReturnsFalseEndsTheWalk) {
