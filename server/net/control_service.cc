@@ -366,7 +366,7 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const Connect
   // Fill the free slot, then hand it to the realtime thread with one release store.
   SessionSlot& slot = sessions_.slot(index);
   slot.id = id;
-  slot.key = MakeSessionKey();
+  slot.SetKey(MakeSessionKey());
   slot.owner_connection = connection.id;
   slot.period_ns = static_cast<int64_t>(std::llround(1e9 / settings.device.rate_hz));
   slot.timeout_ns = static_cast<int64_t>(std::llround(timeout_s * 1e9));

@@ -1,16 +1,18 @@
 #pragma once
 // The realtime channel's datagrams (proto/hapticd/v1/hapticd.proto): a DeviceState or
-// DeviceCommand encoded with protobuf, followed by a 16-byte keyed BLAKE2b tag under the
+// DeviceCommand in protobuf's wire format, followed by a 16-byte keyed BLAKE2b tag under the
 // session's key (RFC 7693; the same bytes as libsodium's crypto_generichash).
 //
-// A command may carry one fragment of a local model (DeviceCommand.model, its last
-// field). Its bytes are written and read here by hand, in protobuf's wire format and
-// byte for byte what protobuf writes: a bytes field parsed by protobuf would allocate.
+// Both messages are written here by hand, in protobuf's wire format and byte for byte
+// what protobuf's serializer writes (its arena and generic serializer cost as much as the
+// rest of an encoding, tag included). A command may carry one fragment of a local model
+// (DeviceCommand.model, written as its last field); its bytes are read here by hand too:
+// a bytes field parsed by protobuf would allocate.
 //
-// A codec owns one protobuf arena over a fixed buffer, so after construction encoding and
-// decoding allocate nothing: one codec per thread, used on the real-time path. Decoding
-// never throws; a datagram that is too long, does not parse or carries a bad tag yields
-// an error code for the caller to count.
+// A codec owns one protobuf arena over a fixed buffer, which decoding parses into, so
+// after construction encoding and decoding allocate nothing: one codec per thread, used
+// on the real-time path. Decoding never throws; a datagram that is too long, does not
+// parse or carries a bad tag yields an error code for the caller to count.
 //
 // Tagging. Keyed BLAKE2b hashes the key, zero-padded to a 128-byte block, as the first
 // block of the message; a TagKey keeps the hash state after that block, so a tag costs

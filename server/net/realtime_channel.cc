@@ -272,7 +272,7 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
     return false;
   }
   SessionSlot& slot = sessions_.slot(slot_index);
-  if (!CheckTag(datagram, slot.PreparedKey())) {
+  if (!CheckTag(datagram, slot.tag_key)) {
     counters_.bad_tag.fetch_add(1, std::memory_order_relaxed);
     ++slot.telemetry.bad_tag;
     PublishTelemetry(slot, slot.state.load(std::memory_order_relaxed));
@@ -472,7 +472,7 @@ bool RealtimeChannel::QueueCommand(SessionSlot& slot, const force::TickOutput& o
   }
 
   RecordOutput(slot, output, scene_version);
-  if (!QueueDatagram(command, slot.PreparedKey(), slot.peer, slot.peer_size, reply)) return false;
+  if (!QueueDatagram(command, slot.tag_key, slot.peer, slot.peer_size, reply)) return false;
   ++telemetry.commands_sent;
   ++slot.command_number;
   slot.channel.RecordCommand(command.f_W, now_ns);
@@ -499,7 +499,7 @@ void RealtimeChannel::RememberEnded(SessionSlot& slot, uint32_t flags) {
   EndedSession& ended = ended_[next_ended_];
   next_ended_ = (next_ended_ + 1) % kEndedRemembered;
   ended.id = slot.id;
-  ended.tag_key = slot.PreparedKey();
+  ended.tag_key = slot.tag_key;
   ended.flags = flags;
   ended.peer = slot.peer;
   ended.last_sequence = slot.replay.newest();

@@ -103,6 +103,9 @@ struct SessionSlot {
 
   uint32_t id = 0;
   SessionKey key{};
+  // key, prepared for tagging (one BLAKE2b compression): set with SetKey, so the
+  // realtime thread tags with it as it is, without comparing keys on every datagram.
+  TagKey tag_key;
   uint64_t owner_connection = 0;  // control thread only: who may close it without the key (0: nobody)
   int64_t period_ns = 1'000'000;
   int64_t timeout_ns = 2'000'000'000;
@@ -136,15 +139,11 @@ struct SessionSlot {
   SessionTelemetrySample telemetry;  // the realtime thread's working copy
   SeqLocked<SessionTelemetrySample> published;
 
-  // The realtime thread: key, prepared for tagging; prepared again when the key is not
-  // the one it was made from (the slot holds a new session).
-  const TagKey& PreparedKey() {
-    if (tag_key_.key() != key) tag_key_ = TagKey(key);
-    return tag_key_;
+  // Control thread, while the slot is kFree: the session's key and its prepared form.
+  void SetKey(const SessionKey& new_key) {
+    key = new_key;
+    tag_key = TagKey(new_key);
   }
-
- private:
-  TagKey tag_key_;
 };
 
 // A session id carries its slot's index in its low kSlotBits bits (the rest is random),

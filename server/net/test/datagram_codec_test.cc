@@ -1,6 +1,8 @@
 #include "server/net/datagram_codec.h"
 
 #include <algorithm>
+#include <iterator>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -247,6 +249,137 @@ TEST(DatagramCodec, HandEncodedFragmentIsProtobufsOwnSerialization) {
       ASSERT_EQ(body, message.SerializeAsString());
       EXPECT_TRUE(CheckTag({buffer.data(), size}, key));
     }
+  }
+}
+
+// The codec writes both messages by hand; protobuf's own serializer is the oracle. The
+// reference message is built by protobuf's setters with the codec's rules (a zero vector
+// and the identity left out, -0.0 counting as zero there), from random samples whose
+// values are often special: zeros of both signs, NaN, infinities, the extremes.
+template <typename Message>
+void SetVectorAsTheCodecDoes(Message& message, v1::Vec3* (Message::*mutable_field)(), const Vector3& v) {
+  if (v.isZero(0)) return;
+  v1::Vec3* out = (message.*mutable_field)();
+  out->set_x(v.x());
+  out->set_y(v.y());
+  out->set_z(v.z());
+}
+
+template <typename Message>
+void SetQuaternionAsTheCodecDoes(Message& message, v1::Quat* (Message::*mutable_field)(), const Quaternion& q) {
+  if (q.w() == 1 && q.vec().isZero(0)) return;
+  v1::Quat* out = (message.*mutable_field)();
+  out->set_w(q.w());
+  out->set_x(q.x());
+  out->set_y(q.y());
+  out->set_z(q.z());
+}
+
+struct RandomValues {
+  std::mt19937_64 random;
+  double Double() {
+    static const double kSpecial[] = {0.0, -0.0, 1.0, -1.0, std::numeric_limits<double>::quiet_NaN(),
+                                      std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+                                      std::numeric_limits<double>::denorm_min(), std::numeric_limits<double>::max()};
+    if (random() % 2 == 0) return kSpecial[random() % std::size(kSpecial)];
+    return std::uniform_real_distribution<double>(-10, 10)(random);
+  }
+  Vector3 Vector() { return random() % 3 == 0 ? Vector3::Zero() : Vector3(Double(), Double(), Double()); }
+  Quaternion Rotation() {
+    return random() % 3 == 0 ? Quaternion::Identity() : Quaternion(Double(), Double(), Double(), Double());
+  }
+  template <typename T>
+  T Integer() {
+    // zero a third of the time; else small (a one-byte varint) or any
+    if (random() % 3 == 0) return 0;
+    return static_cast<T>(random() % 2 == 0 ? random() % 200 : random());
+  }
+};
+
+TEST(DatagramCodec, HandWrittenMessagesAreProtobufsOwnSerialization) {
+  DatagramCodec codec;
+  const SessionKey key = TestKey(8);
+  RandomValues r{std::mt19937_64(44)};
+  std::array<uint8_t, kMaxDatagramSize> buffer;
+  for (int i = 0; i < 2000; ++i) {
+    SCOPED_TRACE(::testing::Message() << "sample " << i);
+    DeviceStateSample state;
+    state.session_id = r.Integer<uint32_t>();
+    state.sequence = r.Integer<uint64_t>();
+    state.send_time_ns = r.Integer<uint64_t>();
+    state.p_WD = r.Vector();
+    state.q_WD = r.Rotation();
+    state.v_WD = r.Vector();
+    state.w_WD = r.Vector();
+    state.buttons = r.Integer<uint32_t>();
+    state.f_sensed_W = r.Vector();
+    state.f_held_W = r.Vector();
+    state.rtt_us = r.Integer<uint32_t>();
+    state.model_version = r.Integer<uint64_t>();
+    state.avatar_W = r.Vector();
+    state.energy_in = r.Double();
+    state.energy_out = r.Double();
+    state.states_held = r.Integer<uint64_t>();
+    state.keepalive = r.random() % 2 == 0;
+    v1::DeviceState state_message;
+    state_message.set_session_id(state.session_id);
+    state_message.set_sequence(state.sequence);
+    state_message.set_send_time_ns(state.send_time_ns);
+    SetVectorAsTheCodecDoes(state_message, &v1::DeviceState::mutable_position, state.p_WD);
+    SetQuaternionAsTheCodecDoes(state_message, &v1::DeviceState::mutable_orientation, state.q_WD);
+    SetVectorAsTheCodecDoes(state_message, &v1::DeviceState::mutable_velocity, state.v_WD);
+    SetVectorAsTheCodecDoes(state_message, &v1::DeviceState::mutable_angular_velocity, state.w_WD);
+    state_message.set_buttons(state.buttons);
+    SetVectorAsTheCodecDoes(state_message, &v1::DeviceState::mutable_sensed_force, state.f_sensed_W);
+    SetVectorAsTheCodecDoes(state_message, &v1::DeviceState::mutable_held_force, state.f_held_W);
+    state_message.set_rtt_us(state.rtt_us);
+    state_message.set_model_version(state.model_version);
+    SetVectorAsTheCodecDoes(state_message, &v1::DeviceState::mutable_avatar, state.avatar_W);
+    state_message.set_energy_in(state.energy_in);
+    state_message.set_energy_out(state.energy_out);
+    state_message.set_states_held(state.states_held);
+    state_message.set_keepalive(state.keepalive);
+    std::size_t size = codec.EncodeState(state, key, buffer);
+    ASSERT_GT(size, 0u);
+    EXPECT_EQ(AsString(std::span<const uint8_t>(buffer).first(size - kTagSize)), state_message.SerializeAsString());
+    EXPECT_TRUE(CheckTag({buffer.data(), size}, key));
+
+    DeviceCommandSample command;
+    command.session_id = r.Integer<uint32_t>();
+    command.sequence = r.Integer<uint64_t>();
+    command.echo_send_time_ns = r.Integer<uint64_t>();
+    command.scene_version = r.Integer<uint64_t>();
+    command.f_W = r.Vector();
+    command.tau_W = r.Vector();
+    command.p_command_W = r.Vector();
+    command.q_command_W = r.Rotation();
+    command.avatar_W = r.Vector();
+    command.contact = r.random() % 2 == 0;
+    command.flags = r.Integer<uint32_t>();
+    command.energy_in = r.Double();
+    command.energy_out = r.Double();
+    command.commands_held = r.Integer<uint64_t>();
+    command.command_number = r.Integer<uint64_t>();
+    v1::DeviceCommand command_message;
+    command_message.set_session_id(command.session_id);
+    command_message.set_sequence(command.sequence);
+    command_message.set_echo_send_time_ns(command.echo_send_time_ns);
+    command_message.set_scene_version(command.scene_version);
+    SetVectorAsTheCodecDoes(command_message, &v1::DeviceCommand::mutable_force, command.f_W);
+    SetVectorAsTheCodecDoes(command_message, &v1::DeviceCommand::mutable_torque, command.tau_W);
+    SetVectorAsTheCodecDoes(command_message, &v1::DeviceCommand::mutable_position, command.p_command_W);
+    SetQuaternionAsTheCodecDoes(command_message, &v1::DeviceCommand::mutable_orientation, command.q_command_W);
+    SetVectorAsTheCodecDoes(command_message, &v1::DeviceCommand::mutable_avatar, command.avatar_W);
+    command_message.set_contact(command.contact);
+    command_message.set_flags(command.flags);
+    command_message.set_energy_in(command.energy_in);
+    command_message.set_energy_out(command.energy_out);
+    command_message.set_commands_held(command.commands_held);
+    command_message.set_command_number(command.command_number);
+    size = codec.EncodeCommand(command, key, buffer);
+    ASSERT_GT(size, 0u);
+    EXPECT_EQ(AsString(std::span<const uint8_t>(buffer).first(size - kTagSize)), command_message.SerializeAsString());
+    EXPECT_TRUE(CheckTag({buffer.data(), size}, key));
   }
 }
 
