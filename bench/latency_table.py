@@ -311,7 +311,7 @@ def main() -> None:
     ratio_text = ", ".join(f"{ratios[n][0]:.2f} at {n}" for n in sorted(ratios))
     within = [n for n in sorted(ratios) if ratios[n][0] <= CPU_RATIO_AIM]
     print(f"- CPU per datagram, hapticd / echo (median of same-block ratios): {ratio_text} (aim ≤ "
-          f"{CPU_RATIO_AIM} at every N the echo holds; within it at N = {', '.join(map(str, within)) or 'none'}).")
+          f"{CPU_RATIO_AIM} at every N the echo holds; within it at {'N = ' + ', '.join(map(str, within)) if within else 'no N'}).")
     realtime_text = ", ".join(f"{ratios[n][1]:.2f} at {n}" for n in sorted(ratios))
     print(f"  hapticd's realtime thread alone (its control thread left out) / echo: {realtime_text}.")
     # hapticd's cost at the largest N the generator kept up with (else the smallest N)
