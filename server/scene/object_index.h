@@ -33,8 +33,6 @@
 
 namespace hapticd::scene {
 
-class ObjectIndex;
-
 // One caller's memory of the static trees around its last query (see above). Used by
 // one thread at a time; holds no pointer into the index.
 class NearCache {
@@ -91,23 +89,18 @@ class ObjectIndex {
     for (const int object : unbounded_) {
       if (!visit(object)) return;
     }
-    bool going = true;
     for (const auto& part : parts_) {
-      part->tree.ForEachOverlap(box, [&](int proxy) { return going = visit(part->object_of_proxy[proxy]); });
-      if (!going) return;
+      if (!Walk(*part, box, visit)) return;
     }
   }
-  // The same, with the static tree's objects taken from cache where it remembers the
+  // The same, with the static trees' objects taken from cache where it remembers the
   // region (and remembering it first where it does not). Never allocates.
   template <typename Visit>
   void ForEachNear(const geometry::Aabb& box, NearCache& cache, Visit visit) const {
     for (const int object : unbounded_) {
       if (!visit(object)) return;
     }
-    bool going = true;
-    const Part& kinematic = *parts_[kKinematic];
-    kinematic.tree.ForEachOverlap(box, [&](int proxy) { return going = visit(kinematic.object_of_proxy[proxy]); });
-    if (!going) return;
+    if (!Walk(*parts_[kKinematic], box, visit)) return;
     if (!ForEachRemembered(*parts_[kRecent], box, cache.recent_, visit)) return;
     ForEachRemembered(*parts_[kStatic], box, cache.static_, visit);
   }
@@ -138,15 +131,18 @@ class ObjectIndex {
   // Fills cache with part's objects within its margin of box (see NearCache); where more
   // are there than it holds, it is left remembering nothing.
   static void Remember(const Part& part, const geometry::Aabb& box, NearCache::Tree& cache);
-  // ForEachNear's walk of one static part, through cache; false when a visit ended it.
+  // ForEachNear's walk of one part's tree; false when a visit ended it.
+  template <typename Visit>
+  static bool Walk(const Part& part, const geometry::Aabb& box, Visit& visit) {
+    bool going = true;
+    part.tree.ForEachOverlap(box, [&](int proxy) { return going = visit(part.object_of_proxy[proxy]); });
+    return going;
+  }
+  // The same of one static part, through cache.
   template <typename Visit>
   static bool ForEachRemembered(const Part& part, const geometry::Aabb& box, NearCache::Tree& cache, Visit& visit) {
     if (cache.generation != part.generation || !Contains(cache.region, box)) Remember(part, box, cache);
-    if (cache.generation != part.generation) {
-      bool going = true;
-      part.tree.ForEachOverlap(box, [&](int proxy) { return going = visit(part.object_of_proxy[proxy]); });
-      return going;
-    }
+    if (cache.generation != part.generation) return Walk(part, box, visit);
     for (int k = 0; k < cache.count; ++k) {
       const int proxy = cache.proxies[k];
       if (geometry::AabbsOverlap(part.tree.box(proxy), box) && !visit(part.object_of_proxy[proxy])) return false;
