@@ -36,9 +36,7 @@ ConvexSweepHit SweepSphereSphere(const Sphere& ball, const Vector3& a, const Vec
   Vector3 normal;
   Vector3 point;
   if (x.allFinite()) {
-    const Vector3 delta = x - ball.center;
-    const double d = delta.norm();
-    normal = d > 0 ? Vector3(delta / d) : Vector3::UnitX();
+    normal = CalcCenterLine(ball.center, x).direction;
     point = ball.center + ball.radius * normal;
   } else {
     const SphereSphereResult contact = CollideSpheres(ball, {x, 0});

@@ -118,15 +118,13 @@ SphereSphereResult CollideSpheres(const Sphere& a, const Sphere& b) {
     result.normal = Vector3::Zero();
     return result;
   }
-  const Vector3 delta = b.center - a.center;
-  const double d = delta.norm();
-  // If the centres coincide (or their distance underflows), pick +x.
-  result.normal = d > 0 ? Vector3(delta / d) : Vector3::UnitX();
+  const CenterLine line = CalcCenterLine(a.center, b.center);
+  result.normal = line.direction;
   const int sign = CompareCenterDistanceToRadiusSum(a, b);
   result.intersect = sign <= 0;
   // Keep the sign of distance consistent with the exact decision; exactly 0 when
   // the spheres touch.
-  const double distance = d - (a.radius + b.radius);
+  const double distance = line.distance - (a.radius + b.radius);
   if (sign == 0) {
     result.distance = 0;
   } else if (sign < 0) {

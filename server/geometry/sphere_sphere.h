@@ -22,6 +22,18 @@ struct SphereSphereResult {
   Vector3 point_b = Vector3::Zero();
 };
 
+// The distance between centres a and b, and the unit vector from a towards b: +x where
+// they coincide or their distance underflows (CollideSpheres' normal for finite input).
+struct CenterLine {
+  double distance = 0;
+  Vector3 direction = Vector3::UnitX();
+};
+inline CenterLine CalcCenterLine(const Vector3& a, const Vector3& b) {
+  const Vector3 delta = b - a;
+  const double d = delta.norm();
+  return {d, d > 0 ? Vector3(delta / d) : Vector3::UnitX()};
+}
+
 // Collides two spheres given in one frame. Preconditions: radii >= 0. Concentric
 // spheres have no preferred direction: the normal is then +x, by convention, and
 // distance = -(ra + rb). A NaN or infinity in either centre or radius gives no
