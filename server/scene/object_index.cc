@@ -19,6 +19,7 @@ void ObjectIndex::Remember(const Part& part, const geometry::Aabb& box, NearCach
     cache.count = 0;
     part.tree.ForEachOverlap(cache.region, [&](int proxy) {
       if (cache.count == NearCache::kCapacity) return false;
+      cache.boxes[cache.count] = part.tree.box(proxy);
       cache.proxies[cache.count++] = proxy;
       return true;
     });
