@@ -199,10 +199,15 @@ double PointSweepTime(const Triangle& tri, const Sweep& s) {
 // The centre of a triangle's bounding sphere.
 Vector3 CentroidOf(const Triangle& tri) { return (tri.v0 + tri.v1 + tri.v2) / 3; }
 
+// The squared radius of the sphere about centroid that holds the triangle.
+double BoundingRadiusSquaredOf(const Triangle& tri, const Vector3& centroid) {
+  return std::max({(tri.v0 - centroid).squaredNorm(), (tri.v1 - centroid).squaredNorm(),
+                   (tri.v2 - centroid).squaredNorm()});
+}
+
 // The radius of the sphere about centroid that holds the triangle.
 double BoundingRadiusOf(const Triangle& tri, const Vector3& centroid) {
-  return std::sqrt(std::max({(tri.v0 - centroid).squaredNorm(), (tri.v1 - centroid).squaredNorm(),
-                             (tri.v2 - centroid).squaredNorm()}));
+  return std::sqrt(BoundingRadiusSquaredOf(tri, centroid));
 }
 
 // Whether a sweep of radius > 0 passes farther than its reach from a triangle's bounding
@@ -215,35 +220,40 @@ bool PassesFarFrom(const Vector3& centroid, double bounding_radius, const Sweep&
   return (offset + nearest * s.d).squaredNorm() > bound * bound;
 }
 
-// A lower bound of the squared distance from the segment a -> a + d to a prepared
-// triangle: at a point of height h over the triangle's plane whose projection onto the
-// plane lies l from the centroid, the distance is at least sqrt(h^2 + max(0, l -
-// bounding radius)^2) (the triangle lies in the plane within its bounding circle); over
-// the segment, the least height (0 when it crosses the plane) and the least l bound it
-// below. With no area (zero normal), the distance from the bounding sphere.
-double LowerDistanceSquared(const PreparedTriangle& prepared, const Vector3& a, const Vector3& d) {
-  const Vector3& n = prepared.normal;
-  const Vector3 offset = a - prepared.centroid;
+// Whether the segment a -> a + d stays farther than sqrt(limit_squared) from a triangle
+// lying in the plane through centroid with unit normal n (zero: no area), within
+// sqrt(bounding_radius_squared) of centroid, by a lower bound of the distance: at a point
+// of height h over the plane whose projection lies l from the centroid, the distance is
+// at least sqrt(h^2 + max(0, l - bounding radius)^2); over the segment, the least height
+// (0 when it crosses the plane) and the least l bound it below. Squared throughout, so
+// no square root (l - b > sqrt(s2) <=> X = l^2 - b^2 - s2 > 0 and X^2 > 4 b^2 s2); the
+// rounding is a few ulps of the squares, far inside the callers' slack.
+bool LowerDistanceExceeds(const Vector3& n, const Vector3& centroid, double bounding_radius_squared,
+                          const Vector3& a, const Vector3& d, double limit_squared) {
+  const Vector3 offset = a - centroid;
   const double height_a = n.dot(offset);
   const double climb = n.dot(d);
   const double height_b = height_a + climb;
   const double height = height_a * height_b <= 0 ? 0 : std::min(std::abs(height_a), std::abs(height_b));
+  const double left = limit_squared - height * height;
+  if (left < 0) return true;
   // in the plane: the start's and the motion's components along it
   const Vector3 lateral = offset - height_a * n;
   const Vector3 drift = d - climb * n;
   const double drift_squared = drift.squaredNorm();
   const double nearest = drift_squared > 0 ? std::clamp(-lateral.dot(drift) / drift_squared, 0.0, 1.0) : 0.0;
-  const double beside = std::max(0.0, (lateral + nearest * drift).norm() - prepared.bounding_radius);
-  return height * height + beside * beside;
+  const double excess = (lateral + nearest * drift).squaredNorm() - bounding_radius_squared - left;
+  return excess > 0 && excess * excess > 4 * bounding_radius_squared * left;
 }
 
 // Whether a sweep of radius > 0 stays farther than its reach from a prepared triangle,
-// by LowerDistanceSquared: tighter than the bounding sphere where a sphere slides over a
+// by LowerDistanceExceeds: tighter than the bounding sphere where a sphere slides over a
 // dense surface (there every triangle near the contact is about r from the centre, and
 // only those under the path are within reach). Rounding is far inside the reach's
 // slack.
 bool PassesFarFrom(const PreparedTriangle& prepared, const Sweep& s) {
-  return LowerDistanceSquared(prepared, s.a, s.d) > s.reach * s.reach;
+  return LowerDistanceExceeds(prepared.normal, prepared.centroid, prepared.bounding_radius * prepared.bounding_radius,
+                              s.a, s.d, s.reach * s.reach);
 }
 
 // SweepTime for r > 0 on a triangle whose bounding sphere the sweep comes near.
@@ -567,15 +577,27 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
       if (!WorkMeter::Charge(node.count[k])) return found;
       for (int i = node.first_primitive(k); i < node.first_primitive(k) + node.count[k]; ++i) {
         const Triangle& tri = bvh.primitive(i);
-        const Aabb box = Aabb::OfTriangle(tri);
-        if ((box.min - segment_box.max).cwiseMax(segment_box.min - box.max).cwiseMax(0.0).squaredNorm() > r2) {
-          continue;
+        // a leaf of one triangle: its box was the test just passed
+        if (node.count[k] > 1) {
+          const Aabb box = Aabb::OfTriangle(tri);
+          if ((box.min - segment_box.max).cwiseMax(segment_box.min - box.max).cwiseMax(0.0).squaredNorm() > r2) {
+            continue;
+          }
         }
-        const PreparedTriangle prepared = PrepareTriangle(tri, bvh.primitive_triangle(i));
-        if (LowerDistanceSquared(prepared, a, d) > r2) continue;
+        // the bound first, the rest of the preparation only for the triangles kept
+        const Vector3 centroid = CentroidOf(tri);
+        const double bounding_radius_squared = BoundingRadiusSquaredOf(tri, centroid);
+        const Vector3 normal = UnitOrZero(AreaNormal(tri));
+        if (LowerDistanceExceeds(normal, centroid, bounding_radius_squared, a, d, r2)) continue;
         // full: say so, and stop
         if (found == capacity) return capacity + 1;
-        out[found++] = prepared;
+        PreparedTriangle& prepared = out[found++];
+        prepared.triangle = tri;
+        prepared.box = Aabb::OfTriangle(tri);
+        prepared.centroid = centroid;
+        prepared.bounding_radius = std::sqrt(bounding_radius_squared);
+        prepared.normal = normal;
+        prepared.index = bvh.primitive_triangle(i);
       }
     }
   }
