@@ -257,6 +257,33 @@ TEST(MeshQueries, FloatTraversalMissesNoBoxFarFromTheOrigin) {
   }
 }
 
+// Near the origin the float traversal's widened origin is a subnormal, so only its
+// relative slack keeps a box that the segment touches at a single point: here a segment
+// from the origin passes through a triangle's vertex at the corner of its box where it
+// enters the x slab at exactly the t where it leaves the y slab (1 / k). In float the
+// two t come from differently rounded reciprocals, so about half the time the entry is
+// an ulp after the exit; the coordinates are small integers, so the float boxes are
+// exact and give no room of their own.
+TEST(MeshQueries, FloatTraversalEntersABoxTouchedAtOneCornerFromTheOrigin) {
+  std::mt19937_64 rng(1205);
+  std::uniform_int_distribution<int> coordinate(1, 1000);
+  std::uniform_int_distribution<int> stretch(2, 97);
+  int hits = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const double a = coordinate(rng), b = coordinate(rng), c = stretch(rng);
+    // the vertex (a, b, 0) is its box's least x and greatest y; the triangle leans out
+    // of z = 0, so the segment (in z = 0) crosses its plane there
+    const std::vector<Vector3> vertices = {{a, b, 0}, {a + 1, b, 1}, {a + 1, b - 1, 1}};
+    const MeshBvh bvh(Share(TriangleMesh(vertices, {{0, 1, 2}})));
+    const Vector3 p = Vector3::Zero(), q(c * a, c * b, 0);
+    ExpectSameFirstHit(bvh, p, q, "corner " + std::to_string(k));
+    if (HasFailure()) return;
+    hits += BruteFirstHit(bvh.mesh(), p, q).hit;
+  }
+  // the exact test counts the vertex as touched: the case is not vacuous
+  EXPECT_GT(hits, 1000);
+}
+
 // Segments float cannot carry (coordinates beyond 1e30, direction components below
 // 1e-37 but not zero) take the double traversal, and still match brute force.
 TEST(MeshQueries, SegmentsBeyondFloatTakeTheDoubleTraversal) {
