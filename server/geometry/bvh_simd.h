@@ -5,8 +5,10 @@
 // four at a time, two per vector (GCC/Clang vector extensions: SSE2 or NEON registers
 // of two doubles), or in float, four per vector (segments: mesh_queries.cc).
 
+#include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 
 #include "server/geometry/bvh.h"
 
@@ -75,6 +77,61 @@ inline void ChildDistancesSquared(const BvhNode& node, const Double2 q_lo[3], co
     }
   }
 }
+
+// A box and a distance, for ChildrenWithin in float (the gather of triangles near a
+// segment: sphere_sweep.cc). The box is rounded outwards to float, so its distance from
+// a child box is never more than the exact box's; each gap (one subtraction of floats)
+// and its square are rounded, and two sums, each within 2^-24, so the float squared
+// distance is at most (1 + 2^-24)^5 < 1 + 2^-21 times the exact one, and the limit is
+// keep^2 rounded up, times (1 + 2^-20), plus a floor for underflow. Float carries
+// this only for coordinates within +-1e30; `usable` says so, and the caller takes
+// ChildDistancesSquared where it is false.
+struct FloatBoxWithin {
+  static constexpr double kMaxCoordinate = 1e30;
+  Float4 lo[3];
+  Float4 hi[3];
+  Float4 limit_squared;
+  bool usable = true;
+
+  FloatBoxWithin(const Aabb& box, double keep) {
+    for (int a = 0; a < 3; ++a) {
+      if (!(std::abs(box.min[a]) <= kMaxCoordinate && std::abs(box.max[a]) <= kMaxCoordinate)) {
+        usable = false;
+        return;
+      }
+      lo[a] = SplatFloat(RoundDown(box.min[a]));
+      hi[a] = SplatFloat(RoundUp(box.max[a]));
+    }
+    const float limit = RoundUp(keep * keep);
+    limit_squared = SplatFloat(limit * (1 + 1.0f / (1 << 20)) + 1e-30f);
+  }
+
+  // Bit c set where child c of node may lie within keep of the box (an empty slot may
+  // be set too: it holds nothing).
+  int ChildrenWithin(const BvhNode& node) const {
+    static_assert(kBvhWidth == 4, "one vector of four children per node");
+    Float4 sum = SplatFloat(0);
+    for (int a = 0; a < 3; ++a) {
+      const Float4 below = LoadFloat4(node.lo[a]) - hi[a];
+      const Float4 above = lo[a] - LoadFloat4(node.hi[a]);
+      Float4 gap = below > above ? below : above;
+      gap = gap > 0 ? gap : SplatFloat(0);
+      sum += gap * gap;
+    }
+    const Mask4 within = sum <= limit_squared;
+    return (within[0] & 1) | (within[1] & 2) | (within[2] & 4) | (within[3] & 8);
+  }
+
+ private:
+  static float RoundDown(double x) {
+    const float f = static_cast<float>(x);
+    return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
+  }
+  static float RoundUp(double x) {
+    const float f = static_cast<float>(x);
+    return static_cast<double>(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
+  }
+};
 
 // Squared distance from p to each child box of `node` (0 inside; infinite for an
 // empty slot): the box form above, the box shrunk to p.

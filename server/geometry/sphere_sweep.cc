@@ -554,9 +554,10 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
   const double r2 = keep * keep;
   const Double2 q_lo[3] = {Splat(segment_box.min.x()), Splat(segment_box.min.y()), Splat(segment_box.min.z())};
   const Double2 q_hi[3] = {Splat(segment_box.max.x()), Splat(segment_box.max.y()), Splat(segment_box.max.z())};
+  const FloatBoxWithin float_box(segment_box, keep);
   const std::vector<BvhNode>& nodes = bvh.nodes();
   // every child box within the radius of the segment's box is opened (no order: all
-  // of them are wanted)
+  // of them are wanted), tested in float where it can be
   int stack[(kBvhWidth - 1) * kMaxBvhDepth + 1];
   int top = 0;
   stack[top++] = 0;
@@ -565,10 +566,16 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
   while (top > 0) {
     if (!WorkMeter::Charge(1)) return found;
     const BvhNode& node = nodes[stack[--top]];
-    double d2[kBvhWidth];
-    ChildDistancesSquared(node, q_lo, q_hi, d2);
+    int within = 0;
+    if (float_box.usable) {
+      within = float_box.ChildrenWithin(node);
+    } else {
+      double d2[kBvhWidth];
+      ChildDistancesSquared(node, q_lo, q_hi, d2);
+      for (int k = 0; k < kBvhWidth; ++k) within |= (d2[k] <= r2) << k;
+    }
     for (int k = 0; k < kBvhWidth; ++k) {
-      if (!(d2[k] <= r2)) continue;
+      if (!(within >> k & 1)) continue;
       if (!node.is_leaf(k)) {
         Prefetch(nodes[node.child[k]]);
         stack[top++] = node.child[k];

@@ -244,6 +244,66 @@ TEST(GatherMeshTriangles, HoldsEveryTriangleWithinTheRegionAndFewMore) {
   EXPECT_GT(kept_beyond, 0);
 }
 
+// The walk tests the BVH's boxes in float. Here each triangle has a corner that is its
+// box's greatest in every axis, and a ball reaches from beyond it in every axis exactly
+// to it, so the triangle's boxes lie at the very radius; every triangle within the
+// radius must still be kept.
+//  - Near the origin, from 1e-3 to 1e2 times the scene's size away, on float
+//    coordinates: the boxes and the centre are exact, and only the slack for the
+//    rounding of a float distance (about 1e-7 of itself) keeps them.
+//  - At 1e6, where a float ulp is 0.06, from 1e-3 to 1 away: only the ball's box
+//    rounded outwards keeps them.
+TEST(GatherMeshTriangles, FloatWalkKeepsTrianglesAtExactlyTheRadius) {
+  std::mt19937_64 random(1205);
+  std::uniform_real_distribution<double> unit(0, 1);
+  const auto to_float = [](const Vector3& p) { return Vector3(p.cast<float>().cast<double>()); };
+  const auto random_vector = [&] { return Vector3(unit(random), unit(random), unit(random)); };
+  struct Case {
+    Vector3 offset;
+    double size;       // of each triangle
+    double min_log10;  // of the ball's centre's distance
+    double max_log10;
+    bool centre_on_float;
+  };
+  int at_radius = 0;
+  for (const Case& c : {Case{Vector3::Zero(), 0.05, -3, 2, true}, Case{Vector3(1e6, -1e6, 1e6), 2, -3, 0, false}}) {
+    std::vector<Vector3> vertices;
+    std::vector<geometry::TriangleMesh::TriangleIndices> triangles;
+    for (int t = 0; t < 300; ++t) {
+      const Vector3 corner = to_float(c.offset + 2 * random_vector() - Vector3::Ones());
+      const auto below = [&] { return to_float(corner - c.size * (Vector3::Constant(0.1) + random_vector())); };
+      const int first = static_cast<int>(vertices.size());
+      vertices.insert(vertices.end(), {corner, below(), below()});
+      triangles.push_back({first, first + 1, first + 2});
+    }
+    const auto mesh = std::make_shared<const geometry::TriangleMesh>(vertices, triangles);
+    const geometry::MeshBvh bvh(mesh);
+    std::vector<geometry::PreparedTriangle> out(mesh->num_triangles());
+    for (int trial = 0; trial < 600; ++trial) {
+      const Vector3 v = vertices[3 * (trial % 300)];
+      const Vector3 away = v + std::pow(10.0, c.min_log10 + (c.max_log10 - c.min_log10) * unit(random)) *
+                                   RandomDirection(random).cwiseAbs();
+      const Vector3 centre = c.centre_on_float ? to_float(away) : away;
+      const geometry::Capsule region{centre, centre, (centre - v).norm()};
+      const int found = geometry::GatherMeshTriangles(bvh, region, out);
+      ASSERT_LE(found, static_cast<int>(out.size())) << trial;
+      std::vector<int> got;
+      for (int k = 0; k < found; ++k) got.push_back(out[k].index);
+      std::sort(got.begin(), got.end());
+      for (int i = 0; i < mesh->num_triangles(); ++i) {
+        const double distance =
+            geometry::CalcCapsuleTriangleContact({centre, centre, 0}, mesh->triangle(i)).distance;
+        if (distance > region.radius) continue;
+        at_radius += distance > region.radius * (1 - 1e-9);
+        EXPECT_TRUE(std::binary_search(got.begin(), got.end(), i))
+            << trial << ": triangle " << i << " at " << distance << " of " << region.radius << " left out";
+      }
+      if (HasFailure()) return;
+    }
+  }
+  EXPECT_GT(at_radius, 600);
+}
+
 // The sausage along a slide on a dense surface holds fewer triangles than the ball about
 // it (the region before it, as render_tick.md measures at 1.3M triangles).
 TEST(GatherMeshTriangles, AlongASlideHoldsFewerThanTheBallAboutIt) {
