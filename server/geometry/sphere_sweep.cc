@@ -555,6 +555,7 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
   const Double2 q_lo[3] = {Splat(segment_box.min.x()), Splat(segment_box.min.y()), Splat(segment_box.min.z())};
   const Double2 q_hi[3] = {Splat(segment_box.max.x()), Splat(segment_box.max.y()), Splat(segment_box.max.z())};
   const FloatBoxWithin float_box(segment_box, keep);
+  const TriangleMesh& mesh = bvh.mesh();
   const std::vector<BvhNode>& nodes = bvh.nodes();
   // every child box within the radius of the segment's box is opened (no order: all
   // of them are wanted), tested in float where it can be
@@ -594,7 +595,9 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
         // the bound first, the rest of the preparation only for the triangles kept
         const Vector3 centroid = CentroidOf(tri);
         const double bounding_radius_squared = BoundingRadiusSquaredOf(tri, centroid);
-        const Vector3 normal = UnitOrZero(AreaNormal(tri));
+        // the mesh's face normal: UnitOrZero(AreaNormal(tri)), made with the mesh
+        const int index = bvh.primitive_triangle(i);
+        const Vector3& normal = mesh.face_normal(index);
         if (LowerDistanceExceeds(normal, centroid, bounding_radius_squared, a, d, r2)) continue;
         // full: say so, and stop
         if (found == capacity) return capacity + 1;
@@ -604,7 +607,7 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
         prepared.centroid = centroid;
         prepared.bounding_radius = std::sqrt(bounding_radius_squared);
         prepared.normal = normal;
-        prepared.index = bvh.primitive_triangle(i);
+        prepared.index = index;
       }
     }
   }
