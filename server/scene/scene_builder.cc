@@ -252,11 +252,11 @@ std::size_t KeptTriangles(const SceneObject& object) {
 }
 
 // The scene's triangle budget, with `added` kept in place of `replaced` (or nothing).
-void RequireTriangleBudget(const SharedObjects& objects, const SceneObject& added, const SceneObject* replaced,
+void RequireTriangleBudget(const ObjectList& objects, const SceneObject& added, const SceneObject* replaced,
                            const SceneBudgets& budgets) {
   std::size_t total = KeptTriangles(added);
-  for (const auto& object : objects) {
-    if (object.get() != replaced) total += KeptTriangles(*object);
+  for (int i = 0; i < objects.size(); ++i) {
+    if (objects[i].get() != replaced) total += KeptTriangles(*objects[i]);
   }
   if (total > budgets.max_triangles) {
     throw SceneError(ObjectField(added.name) + " would bring the scene to " + std::to_string(total) +
@@ -272,15 +272,15 @@ SceneBuilder::SceneBuilder(SceneSettings settings) : settings_(settings) {
 
 const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
   if (FindObject(spec.name) >= 0) throw SceneError(ObjectField(spec.name) + " already exists");
-  if (objects_.size() >= settings_.budgets.max_objects) {
+  if (static_cast<size_t>(objects_.size()) >= settings_.budgets.max_objects) {
     throw SceneError("the scene has " + std::to_string(objects_.size()) + " objects; the budget is " +
                      std::to_string(settings_.budgets.max_objects) + " (max_objects)");
   }
   SceneObject object = MakeObject(spec, settings_);
   RequireTriangleBudget(objects_, object, nullptr, settings_.budgets);
   AttachRayBackend(spec, object);
-  objects_.push_back(std::make_shared<SceneObject>(std::move(object)));
-  const SceneObject& added = *objects_.back();
+  objects_.PushBack(std::make_shared<SceneObject>(std::move(object)));
+  const SceneObject& added = *objects_[num_objects() - 1];
   index_of_name_.emplace(added.name, num_objects() - 1);
   index_.Insert(num_objects() - 1, added.bounds_W, added.motion == Motion::kKinematic);
   if (added.motion == Motion::kKinematic) WritableKinematic().push_back(num_objects() - 1);
@@ -294,7 +294,7 @@ const SceneObject& SceneBuilder::Update(const ObjectSpec& spec) {
   AttachRayBackend(spec, object);
   const bool was_kinematic = objects_[index]->motion == Motion::kKinematic;
   // a new object: the snapshots that hold the old one keep it
-  objects_[index] = std::make_shared<SceneObject>(std::move(object));
+  objects_.Writable(index) = std::make_shared<SceneObject>(std::move(object));
   const bool kinematic = objects_[index]->motion == Motion::kKinematic;
   index_.Move(index, objects_[index]->bounds_W, kinematic);
   if (kinematic != was_kinematic) {
@@ -332,7 +332,7 @@ void SceneBuilder::Remove(std::string_view name) {
   for (auto& [other, i] : index_of_name_) {
     if (i > index) --i;
   }
-  objects_.erase(objects_.begin() + index);
+  objects_.Erase(index);
   index_.Erase(index);
   // the objects after it move down one index
   std::vector<int>& list = WritableKinematic();
@@ -429,8 +429,9 @@ SceneObject& SceneBuilder::Writable(int index) {
   // shared with a snapshot: copy it first (only this thread adds holders, so a count of
   // one cannot grow behind our back). Every object is made non-const (make_shared
   // <SceneObject>), so writing through the copy's pointer is sound.
-  if (objects_[index].use_count() > 1) objects_[index] = std::make_shared<SceneObject>(*objects_[index]);
-  return const_cast<SceneObject&>(*objects_[index]);
+  std::shared_ptr<const SceneObject>& entry = objects_.Writable(index);
+  if (entry.use_count() > 1) entry = std::make_shared<SceneObject>(*entry);
+  return const_cast<SceneObject&>(*entry);
 }
 
 }  // namespace hapticd::scene

@@ -79,7 +79,7 @@ class SceneBuilder {
   bool HasMovingObjects() const;
 
   const SceneSettings& settings() const { return settings_; }
-  int num_objects() const { return static_cast<int>(objects_.size()); }
+  int num_objects() const { return objects_.size(); }
   // Index of the object named name, or -1 (a hash lookup).
   int FindObject(std::string_view name) const;
   // The material of the object at index (in [0, num_objects())).
@@ -100,7 +100,7 @@ class SceneBuilder {
   SceneSettings settings_;
   // Shared with the snapshots built from them: an edit replaces or copies the objects it
   // changes and leaves the others shared.
-  SharedObjects objects_;
+  ObjectList objects_;
   // Each object's index by name.
   struct NameHash {
     using is_transparent = void;

@@ -7,9 +7,9 @@ namespace hapticd::scene {
 
 namespace {
 
-SharedObjects Share(const std::vector<SceneObject>& objects) {
-  SharedObjects shared;
-  for (const SceneObject& object : objects) shared.push_back(std::make_shared<SceneObject>(object));
+ObjectList Share(const std::vector<SceneObject>& objects) {
+  ObjectList shared;
+  for (const SceneObject& object : objects) shared.PushBack(std::make_shared<SceneObject>(object));
   return shared;
 }
 
@@ -31,7 +31,7 @@ KinematicList KinematicOf(const std::vector<SceneObject>& objects) {
 
 }  // namespace
 
-SceneSnapshot::SceneSnapshot(SharedObjects objects, ObjectIndex index, KinematicList kinematic,
+SceneSnapshot::SceneSnapshot(ObjectList objects, ObjectIndex index, KinematicList kinematic,
                              SceneSettings settings, uint64_t version)
     : objects_(std::move(objects)),
       index_(std::move(index)),

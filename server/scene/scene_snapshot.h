@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "server/scene/object_index.h"
+#include "server/scene/object_list.h"
 #include "server/scene/scene_limits.h"
 #include "server/scene/scene_object.h"
 
@@ -24,11 +25,6 @@ struct SceneSettings {
   SceneBudgets budgets;
 };
 
-// A scene's objects, each shared by the snapshots (and the builder) that hold it: an
-// edit copies what it changes, not the scene. Each points to a non-const SceneObject
-// (SceneBuilder's copy-on-write relies on it).
-using SharedObjects = std::vector<std::shared_ptr<const SceneObject>>;
-
 // The kinematic objects' indices, ascending: kept by the builder, shared by snapshots.
 // Points to a non-const vector (the builder's copy-on-write relies on it).
 using KinematicList = std::shared_ptr<const std::vector<int>>;
@@ -37,7 +33,7 @@ class SceneSnapshot {
  public:
   // index: the broad phase over objects, kinematic: the kinematic objects (the builder
   // keeps both up to date).
-  SceneSnapshot(SharedObjects objects, ObjectIndex index, KinematicList kinematic, SceneSettings settings,
+  SceneSnapshot(ObjectList objects, ObjectIndex index, KinematicList kinematic, SceneSettings settings,
                 uint64_t version);
   // Copies the objects and builds their index (for tests).
   SceneSnapshot(const std::vector<SceneObject>& objects, SceneSettings settings, uint64_t version);
@@ -45,8 +41,7 @@ class SceneSnapshot {
   // Increases with every published edit.
   uint64_t version() const { return version_; }
   const SceneSettings& settings() const { return settings_; }
-  const SharedObjects& shared_objects() const { return objects_; }
-  int num_objects() const { return static_cast<int>(objects_.size()); }
+  int num_objects() const { return objects_.size(); }
   const SceneObject& object(int i) const { return *objects_[i]; }
   // Index of the object named name, or -1: a linear scan (the builder, which every
   // edit goes through, keeps a hash index).
@@ -71,7 +66,7 @@ class SceneSnapshot {
   std::vector<int> ObjectsNear(const geometry::Aabb& box) const;
 
  private:
-  SharedObjects objects_;
+  ObjectList objects_;
   ObjectIndex index_;
   KinematicList kinematic_;
   SceneSettings settings_;
