@@ -251,13 +251,8 @@ std::size_t KeptTriangles(const SceneObject& object) {
   return mesh != nullptr && mesh->bvh ? static_cast<std::size_t>(mesh->bvh->mesh().num_triangles()) : 0;
 }
 
-// The scene's triangle budget, with `added` kept in place of `replaced` (or nothing).
-void RequireTriangleBudget(const ObjectList& objects, const SceneObject& added, const SceneObject* replaced,
-                           const SceneBudgets& budgets) {
-  std::size_t total = KeptTriangles(added);
-  for (int i = 0; i < objects.size(); ++i) {
-    if (objects[i].get() != replaced) total += KeptTriangles(*objects[i]);
-  }
+// The scene's triangle budget, where keeping `added` would bring the scene to total.
+void RequireTriangleBudget(std::size_t total, const SceneObject& added, const SceneBudgets& budgets) {
   if (total > budgets.max_triangles) {
     throw SceneError(ObjectField(added.name) + " would bring the scene to " + std::to_string(total) +
                      " triangles; the budget is " + std::to_string(budgets.max_triangles) + " (max_triangles)");
@@ -277,9 +272,11 @@ const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
                      std::to_string(settings_.budgets.max_objects) + " (max_objects)");
   }
   SceneObject object = MakeObject(spec, settings_);
-  RequireTriangleBudget(objects_, object, nullptr, settings_.budgets);
+  const std::size_t kept_triangles = kept_triangles_ + KeptTriangles(object);
+  RequireTriangleBudget(kept_triangles, object, settings_.budgets);
   AttachRayBackend(spec, object);
   objects_.PushBack(std::make_shared<SceneObject>(std::move(object)));
+  kept_triangles_ = kept_triangles;
   const SceneObject& added = *objects_[num_objects() - 1];
   index_of_name_.emplace(added.name, num_objects() - 1);
   index_.Insert(num_objects() - 1, added.bounds_W, added.motion == Motion::kKinematic);
@@ -290,11 +287,13 @@ const SceneObject& SceneBuilder::Add(const ObjectSpec& spec) {
 const SceneObject& SceneBuilder::Update(const ObjectSpec& spec) {
   const int index = IndexOrThrow(spec.name);
   SceneObject object = MakeObject(spec, settings_);
-  RequireTriangleBudget(objects_, object, objects_[index].get(), settings_.budgets);
+  const std::size_t kept_triangles = kept_triangles_ - KeptTriangles(*objects_[index]) + KeptTriangles(object);
+  RequireTriangleBudget(kept_triangles, object, settings_.budgets);
   AttachRayBackend(spec, object);
   const bool was_kinematic = objects_[index]->motion == Motion::kKinematic;
   // a new object: the snapshots that hold the old one keep it
   objects_.Writable(index) = std::make_shared<SceneObject>(std::move(object));
+  kept_triangles_ = kept_triangles;
   const bool kinematic = objects_[index]->motion == Motion::kKinematic;
   index_.Move(index, objects_[index]->bounds_W, kinematic);
   if (kinematic != was_kinematic) {
@@ -332,6 +331,7 @@ void SceneBuilder::Remove(std::string_view name) {
   for (auto& [other, i] : index_of_name_) {
     if (i > index) --i;
   }
+  kept_triangles_ -= KeptTriangles(*objects_[index]);
   objects_.Erase(index);
   index_.Erase(index);
   // the objects after it move down one index

@@ -101,6 +101,8 @@ class SceneBuilder {
   // Shared with the snapshots built from them: an edit replaces or copies the objects it
   // changes and leaves the others shared.
   ObjectList objects_;
+  // The triangles its objects keep as meshes, together (the triangle budget's count).
+  std::size_t kept_triangles_ = 0;
   // Each object's index by name.
   struct NameHash {
     using is_transparent = void;

@@ -303,6 +303,17 @@ TEST(SceneBudgets, EachRefusalNamesItsBudget) {
             "objects[m3] would bring the scene to 2160 triangles; the budget is 1500 (max_triangles)");
   // replacing a mesh counts the new one in place of the old
   EXPECT_NO_THROW(builder.Update([&] { ObjectSpec m = mesh; m.name = "m2"; return m; }()));
+  // removing a mesh frees its triangles: now the third fits
+  builder.Remove("m2");
+  EXPECT_NO_THROW(builder.Add(mesh));
+  // and so does replacing one by a sphere, until it is a mesh again
+  builder.Update(Sphere("m1"));
+  mesh.name = "m2";
+  EXPECT_NO_THROW(builder.Add(mesh));
+  builder.Remove("m2");
+  builder.Update([&] { ObjectSpec m = mesh; m.name = "m1"; return m; }());
+  EXPECT_EQ(ErrorOf([&] { builder.Add(mesh); }),
+            "objects[m2] would bring the scene to 2160 triangles; the budget is 1500 (max_triangles)");
   // one mesh over the per-mesh budget is refused before any work is spent on it
   const geometry::TriangleMesh big = geometry::MakeIcosphere(10, 1.0);
   ASSERT_GT(big.num_triangles(), 1000);
