@@ -18,7 +18,8 @@ using Pointer = ObjectList::Pointer;
 
 Pointer Named(int serial) {
   auto object = std::make_shared<SceneObject>();
-  object->name = "o" + std::to_string(serial);
+  object->name = std::to_string(serial);
+  object->name.insert(object->name.begin(), 'o');
   return object;
 }
 
