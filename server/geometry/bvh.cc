@@ -37,22 +37,6 @@ inline Float4 Min(Float4 a, Float4 b) { return a < b ? a : b; }
 inline Float4 Max(Float4 a, Float4 b) { return a > b ? a : b; }
 inline Float4 Splat(float x) { return Float4{x, x, x, x}; }
 
-// Largest float <= x, and smallest float >= x, clamped to the finite floats (a box
-// side at +-FLT_MAX is widened to infinity when it is written to a node).
-float RoundDown(double x) {
-  if (!(x > -kFloatMax)) return -kFloatMax;
-  if (x > kFloatMax) return kFloatMax;
-  float f = static_cast<float>(x);
-  // rounded up: one float step down (from zero, to the smallest negative float)
-  if (static_cast<double>(f) > x) {
-    const int32_t bits = std::bit_cast<int32_t>(f);
-    constexpr float kSmallestNegative = -std::numeric_limits<float>::denorm_min();
-    f = f > 0 ? std::bit_cast<float>(bits - 1)
-              : (f == 0 ? kSmallestNegative : std::bit_cast<float>(bits + 1));
-  }
-  return f;
-}
-float RoundUp(double x) { return -RoundDown(-x); }
 
 // A node side from a ref side: the clamped extremes stand for everything beyond.
 float WidenLow(float lo) { return lo <= -kFloatMax ? -kInf : lo; }
@@ -490,9 +474,9 @@ MeshBvh::MeshBvh(std::shared_ptr<const TriangleMesh> mesh, const BvhBuildOptions
       const Triangle t = mesh_->triangle(source[i]);
       const Vector3 lo = t.v0.cwiseMin(t.v1).cwiseMin(t.v2);
       const Vector3 hi = t.v0.cwiseMax(t.v1).cwiseMax(t.v2);
-      refs[i].lo = Float4{RoundDown(lo.x()), RoundDown(lo.y()), RoundDown(lo.z()),
+      refs[i].lo = Float4{RoundDownToFloat(lo.x()), RoundDownToFloat(lo.y()), RoundDownToFloat(lo.z()),
                           PrimRef::EncodeIndex(source[i])};
-      refs[i].hi = Float4{RoundUp(hi.x()), RoundUp(hi.y()), RoundUp(hi.z()), 0};
+      refs[i].hi = Float4{RoundUpToFloat(hi.x()), RoundUpToFloat(hi.y()), RoundUpToFloat(hi.z()), 0};
     }
   });
 
@@ -541,5 +525,20 @@ Aabb MeshBvh::bounds() const {
   }
   return box;
 }
+
+float RoundDownToFloat(double x) {
+  if (!(x > -kFloatMax)) return -kFloatMax;
+  if (x > kFloatMax) return kFloatMax;
+  float f = static_cast<float>(x);
+  // rounded up: one float step down (from zero, to the smallest negative float)
+  if (static_cast<double>(f) > x) {
+    const int32_t bits = std::bit_cast<int32_t>(f);
+    constexpr float kSmallestNegative = -std::numeric_limits<float>::denorm_min();
+    f = f > 0 ? std::bit_cast<float>(bits - 1)
+              : (f == 0 ? kSmallestNegative : std::bit_cast<float>(bits + 1));
+  }
+  return f;
+}
+float RoundUpToFloat(double x) { return -RoundDownToFloat(-x); }
 
 }  // namespace hapticd::geometry

@@ -59,6 +59,12 @@ struct alignas(64) BvhNode {
 };
 static_assert(sizeof(BvhNode) == 32 * kBvhWidth);
 
+// The largest float <= x and the smallest float >= x, clamped to the finite floats: how
+// the boxes are rounded outwards (a node side at +-FLT_MAX stands for everything beyond
+// and is widened to infinity), and how float queries round their own boxes.
+float RoundDownToFloat(double x);
+float RoundUpToFloat(double x);
+
 class MeshBvh {
  public:
   // Builds the hierarchy over mesh->nondegenerate_triangles(); the BVH shares ownership

@@ -8,7 +8,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <limits>
 
 #include "server/geometry/bvh.h"
 
@@ -83,7 +82,8 @@ inline void ChildDistancesSquared(const BvhNode& node, const Double2 q_lo[3], co
 // a child box is never more than the exact box's; each gap (one subtraction of floats)
 // and its square are rounded, and two sums, each within 2^-24, so the float squared
 // distance is at most (1 + 2^-24)^5 < 1 + 2^-21 times the exact one, and the limit is
-// keep^2 rounded up, times (1 + 2^-20), plus a floor for underflow. Float carries
+// keep^2 rounded up (RoundUpToFloat; at the largest float the factor makes it
+// infinite), times (1 + 2^-20), plus a floor for underflow. Float carries
 // this only for coordinates within +-1e30; `usable` says so, and the caller takes
 // ChildDistancesSquared where it is false.
 struct FloatBoxWithin {
@@ -99,10 +99,10 @@ struct FloatBoxWithin {
         usable = false;
         return;
       }
-      lo[a] = SplatFloat(RoundDown(box.min[a]));
-      hi[a] = SplatFloat(RoundUp(box.max[a]));
+      lo[a] = SplatFloat(RoundDownToFloat(box.min[a]));
+      hi[a] = SplatFloat(RoundUpToFloat(box.max[a]));
     }
-    const float limit = RoundUp(keep * keep);
+    const float limit = RoundUpToFloat(keep * keep);
     limit_squared = SplatFloat(limit * (1 + 1.0f / (1 << 20)) + 1e-30f);
   }
 
@@ -120,16 +120,6 @@ struct FloatBoxWithin {
     }
     const Mask4 within = sum <= limit_squared;
     return (within[0] & 1) | (within[1] & 2) | (within[2] & 4) | (within[3] & 8);
-  }
-
- private:
-  static float RoundDown(double x) {
-    const float f = static_cast<float>(x);
-    return static_cast<double>(f) > x ? std::nextafter(f, -std::numeric_limits<float>::infinity()) : f;
-  }
-  static float RoundUp(double x) {
-    const float f = static_cast<float>(x);
-    return static_cast<double>(f) < x ? std::nextafter(f, std::numeric_limits<float>::infinity()) : f;
   }
 };
 

@@ -530,14 +530,27 @@ SphereSweepHit SweepSphereMesh(const MeshBvh& bvh, const Vector3& a, const Vecto
   return hit;
 }
 
-PreparedTriangle PrepareTriangle(const Triangle& triangle, int index) {
-  PreparedTriangle prepared;
+namespace {
+
+// Fills prepared from the parts already made of triangle (GatherMeshTriangles makes them
+// before it decides to keep it, and writes the kept ones straight to its output).
+void Prepare(const Triangle& triangle, int index, const Vector3& centroid, double bounding_radius_squared,
+             const Vector3& normal, PreparedTriangle& prepared) {
   prepared.triangle = triangle;
   prepared.box = Aabb::OfTriangle(triangle);
-  prepared.centroid = CentroidOf(triangle);
-  prepared.bounding_radius = BoundingRadiusOf(triangle, prepared.centroid);
-  prepared.normal = UnitOrZero(AreaNormal(triangle));
+  prepared.centroid = centroid;
+  prepared.bounding_radius = std::sqrt(bounding_radius_squared);
+  prepared.normal = normal;
   prepared.index = index;
+}
+
+}  // namespace
+
+PreparedTriangle PrepareTriangle(const Triangle& triangle, int index) {
+  const Vector3 centroid = CentroidOf(triangle);
+  PreparedTriangle prepared;
+  Prepare(triangle, index, centroid, BoundingRadiusSquaredOf(triangle, centroid), UnitOrZero(AreaNormal(triangle)),
+          prepared);
   return prepared;
 }
 
@@ -586,12 +599,7 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
       for (int i = node.first_primitive(k); i < node.first_primitive(k) + node.count[k]; ++i) {
         const Triangle& tri = bvh.primitive(i);
         // a leaf of one triangle: its box was the test just passed
-        if (node.count[k] > 1) {
-          const Aabb box = Aabb::OfTriangle(tri);
-          if ((box.min - segment_box.max).cwiseMax(segment_box.min - box.max).cwiseMax(0.0).squaredNorm() > r2) {
-            continue;
-          }
-        }
+        if (node.count[k] > 1 && CalcAabbAabbDistanceSquared(Aabb::OfTriangle(tri), segment_box) > r2) continue;
         // the bound first, the rest of the preparation only for the triangles kept
         const Vector3 centroid = CentroidOf(tri);
         const double bounding_radius_squared = BoundingRadiusSquaredOf(tri, centroid);
@@ -601,13 +609,7 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
         if (LowerDistanceExceeds(normal, centroid, bounding_radius_squared, a, d, r2)) continue;
         // full: say so, and stop
         if (found == capacity) return capacity + 1;
-        PreparedTriangle& prepared = out[found++];
-        prepared.triangle = tri;
-        prepared.box = Aabb::OfTriangle(tri);
-        prepared.centroid = centroid;
-        prepared.bounding_radius = std::sqrt(bounding_radius_squared);
-        prepared.normal = normal;
-        prepared.index = index;
+        Prepare(tri, index, centroid, bounding_radius_squared, normal, out[found++]);
       }
     }
   }
