@@ -15,7 +15,7 @@ set -euo pipefail
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"
 # executions per target in --ci mode (measured rates here: 20 s of each)
-declare -A ci_runs=([fuzz_datagram]=900000 [fuzz_control]=8000 [fuzz_scene_file]=250000 [fuzz_scenario]=200000
+declare -A ci_runs=([fuzz_datagram]=650000 [fuzz_control]=8000 [fuzz_scene_file]=250000 [fuzz_scenario]=200000
                     [fuzz_mesh_file]=170000 [fuzz_mesh_validation]=28000 [fuzz_conformance_line]=25000)
 ci=false
 if [[ "${1:-}" == "--ci" ]]; then

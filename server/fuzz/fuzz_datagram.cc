@@ -7,7 +7,10 @@
 //   - a decoded message re-encodes, and decoding that gives the same sample (NaN
 //     included), and re-encoding again gives the same bytes: the codec's canonical form;
 //   - CheckTag agrees with libsodium's keyed BLAKE2b computed here, accepts the tag of
-//     the re-encoding and refuses it with any one bit of the tag flipped.
+//     the re-encoding and refuses it with any one bit of the tag flipped;
+//   - the message parses exactly when protobuf's generated parser accepts it (a command
+//     that protobuf reads with a model fragment aside: one fragment within bounds is the
+//     codec's own rule).
 // Seeds: the golden datagrams (key 00 01 .. 1f), which carry valid tags.
 
 #include <sodium.h>
@@ -17,7 +20,9 @@
 #include <cstdint>
 #include <cstring>
 #include <span>
+#include <type_traits>
 
+#include "hapticd/v1/hapticd.pb.h"
 #include "server/fuzz/fuzz_check.h"
 #include "server/net/datagram_codec.h"
 
@@ -91,6 +96,19 @@ void CheckRoundTrip(const Sample& decoded, const SessionKey& key, Encode encode,
   }
 }
 
+// The codec's verdict on a datagram within its limit against protobuf's on its message.
+template <typename Message>
+void CheckAgreesWithProtobuf(std::span<const uint8_t> datagram, DatagramError error, std::size_t limit) {
+  if (datagram.size() < kTagSize || datagram.size() > limit) return;
+  Message message;
+  const bool parses = message.ParseFromArray(datagram.data(), static_cast<int>(datagram.size() - kTagSize));
+  if constexpr (std::is_same_v<Message, hapticd::v1::DeviceCommand>) {
+    if (parses && message.has_model()) return;
+  }
+  FUZZ_CHECK(parses == (error == DatagramError::kNone), "protobuf %s a message the codec %s",
+             parses ? "accepts" : "refuses", error == DatagramError::kNone ? "accepts" : "refuses");
+}
+
 void CheckError(DatagramError error, std::size_t size, std::size_t limit) {
   FUZZ_CHECK(error == DatagramError::kNone || error == DatagramError::kOversized ||
                  error == DatagramError::kMalformed,
@@ -123,6 +141,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   DeviceStateSample state;
   const DatagramError state_error = codec.ParseState(datagram, state);
   CheckError(state_error, size, kMaxStateSize);
+  CheckAgreesWithProtobuf<hapticd::v1::DeviceState>(datagram, state_error, kMaxStateSize);
   if (state_error == DatagramError::kNone) CheckRoundTrip(state, golden_key, encode_state, parse_state);
 
   const auto encode_command = [](const DeviceCommandSample& c, const SessionKey& k, std::span<uint8_t> out) {
@@ -134,6 +153,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   DeviceCommandSample command;
   const DatagramError command_error = codec.ParseCommand(datagram, command);
   CheckError(command_error, size, kMaxCommandSize);
+  CheckAgreesWithProtobuf<hapticd::v1::DeviceCommand>(datagram, command_error, kMaxCommandSize);
   if (command_error == DatagramError::kNone) CheckRoundTrip(command, golden_key, encode_command, parse_command);
   return 0;
 }

@@ -7,23 +7,8 @@
 #include <cstring>
 #include <utility>
 
-#include <google/protobuf/arena.h>
-
-#include "hapticd/v1/hapticd.pb.h"
-
 namespace hapticd::net {
 namespace {
-
-namespace pb = ::hapticd::v1;
-
-// Enough for one message of either kind and its sub-messages many times over.
-constexpr std::size_t kArenaBlockSize = 16 * 1024;
-
-// An absent vector reads as zero, an absent quaternion as the identity.
-Vector3 FromProto(const pb::Vec3& v) { return {v.x(), v.y(), v.z()}; }
-Quaternion FromProto(const pb::Quat& q, bool present) {
-  return present ? Quaternion(q.w(), q.x(), q.y(), q.z()) : Quaternion::Identity();
-}
 
 // ---- BLAKE2b (RFC 7693), 16-byte digest, 32-byte key ----
 //
@@ -169,36 +154,63 @@ uint8_t* PutFragmentField(const ModelFragmentView& f, uint8_t* p) {
   return p;
 }
 
-// Reads protobuf fields off a span; any misstep (a truncated value, an unknown wire
-// type) sets failed.
+// ---- protobuf's wire format, read ----
+//
+// What protobuf's generated parser accepts, and no more (datagram_codec_test and
+// fuzz_datagram compare the two on random and mutated messages): fields in any order, a
+// scalar's last value wins, a sub-message given again merges into the first; a field
+// not in the message, or in it with another wire type, is unknown and skipped, groups
+// included. Refused: a value cut short, a tag of field 0 or of more than 5 bytes, a length of more than 5 bytes or past the message's end, an end-group tag without
+// its group, wire types 6 and 7, and sub-messages and groups nested more than
+// kMaxNesting deep (protobuf's default recursion limit).
+constexpr int kStartGroup = 3, kEndGroup = 4;
+constexpr int kMaxNesting = 100;
+
 struct WireReader {
   std::span<const uint8_t> in;
   std::size_t at = 0;
   bool failed = false;
 
   bool done() const { return failed || at >= in.size(); }
-  uint64_t Varint() {
+  // A varint of up to `max_bytes` bytes (the bits past 64 dropped, as protobuf does).
+  uint64_t Varint(int max_bytes = 10) {
+    if (at < in.size() && in[at] < 0x80) return in[at++];  // most tags and lengths
     uint64_t v = 0;
-    for (int shift = 0; shift < 64; shift += 7) {
-      if (at >= in.size()) break;
+    for (int i = 0; i < max_bytes && at < in.size(); ++i) {
       const uint8_t byte = in[at++];
-      v |= uint64_t{byte & 0x7fu} << shift;
+      if (i < 10) v |= uint64_t{byte & 0x7fu} << (7 * i);
       if (!(byte & 0x80)) return v;
     }
     failed = true;
     return 0;
   }
-  uint64_t Fixed(int bytes) {
-    if (in.size() - at < static_cast<std::size_t>(bytes)) {
+  // A field's tag: its number (not 0) and wire type; a fifth byte's bits past 32 are
+  // dropped, as protobuf does.
+  uint32_t Tag() {
+    const auto tag = static_cast<uint32_t>(Varint(5));
+    if ((tag >> 3) == 0) failed = true;
+    return tag;
+  }
+  // A fixed32 or fixed64 value (kBytes 4 or 8).
+  template <std::size_t kBytes>
+  uint64_t Fixed() {
+    if (in.size() - at < kBytes) {
       failed = true;
       return 0;
     }
     uint64_t v = 0;
-    for (int i = 0; i < bytes; ++i) v |= uint64_t{in[at++]} << (8 * i);
+    if constexpr (std::endian::native == std::endian::little) {
+      std::memcpy(&v, in.data() + at, kBytes);
+      at += kBytes;
+    } else {
+      for (std::size_t i = 0; i < kBytes; ++i) v |= uint64_t{in[at++]} << (8 * i);
+    }
     return v;
   }
+  double Double() { return std::bit_cast<double>(Fixed<8>()); }
+  // A length-delimited value's bytes.
   std::span<const uint8_t> Bytes() {
-    const uint64_t size = Varint();
+    const uint64_t size = Varint(5);
     if (failed || size > in.size() - at) {
       failed = true;
       return {};
@@ -207,40 +219,88 @@ struct WireReader {
     at += size;
     return bytes;
   }
-  // Skips a field's value of wire type `type`.
-  void Skip(int type) {
-    switch (type) {
+  // Skips the value of an unknown field with this tag; a group (with the groups in it)
+  // up to its end-group tag. nesting: the sub-messages and groups around the field.
+  void Skip(uint32_t tag, int nesting) {
+    switch (static_cast<int>(tag & 7)) {
       case kVarint: Varint(); return;
-      case kFixed64: Fixed(8); return;
+      case kFixed64: Fixed<8>(); return;
       case kLengthDelimited: Bytes(); return;
-      case kFixed32: Fixed(4); return;
-      default: failed = true;
+      case kFixed32: Fixed<4>(); return;
+      case kStartGroup:
+        if (nesting + 1 > kMaxNesting) break;
+        while (!done()) {
+          const uint32_t inner = Tag();
+          if (failed) return;
+          if ((inner & 7) == kEndGroup) {
+            if ((inner >> 3) != (tag >> 3)) break;
+            return;
+          }
+          Skip(inner, nesting + 1);
+        }
+        break;
+      default: break;  // an end group without its start; wire types 6, 7
     }
+    failed = true;
   }
 };
 
-// The fragment in body (a ModelFragment's bytes); false when it does not parse or
-// breaks the bounds.
-bool ReadFragment(std::span<const uint8_t> body, ModelFragmentView& out) {
-  out = {};
+// Reads the message in body, calling read(number, type, reader) on each field: it reads
+// the value and says true, or says false to have the field skipped as unknown. nesting:
+// the sub-messages and groups around body. False when the message does not parse.
+template <class ReadField>
+bool ReadMessage(std::span<const uint8_t> body, int nesting, ReadField&& read) {
+  if (nesting > kMaxNesting) return false;
   WireReader reader{body};
   while (!reader.done()) {
-    const uint64_t key = reader.Varint();
-    const int type = static_cast<int>(key & 7);
-    const uint64_t field = key >> 3;
-    if (field == 1 && type == kFixed64) {
-      out.version = reader.Fixed(8);
-    } else if (field == 2 && type == kFixed32) {
-      out.index = static_cast<uint32_t>(reader.Fixed(4));
-    } else if (field == 3 && type == kFixed32) {
-      out.count = static_cast<uint32_t>(reader.Fixed(4));
-    } else if (field == 4 && type == kLengthDelimited) {
-      out.data = reader.Bytes();
-    } else {
-      reader.Skip(type);
-    }
+    const uint32_t tag = reader.Tag();
+    if (reader.failed) break;
+    if (!read(tag >> 3, static_cast<int>(tag & 7), reader)) reader.Skip(tag, nesting);
   }
-  return !reader.failed && out.count >= 1 && out.count <= kMaxModelFragments && out.index < out.count &&
+  return !reader.failed;
+}
+
+// A Vec3 or Quat field's value, merged into v[0..N) (its fields 1..N in order, doubles).
+template <std::size_t N>
+void ReadDoubles(WireReader& reader, int nesting, double* v) {
+  const std::span<const uint8_t> body = reader.Bytes();
+  const bool read = !reader.failed && ReadMessage(body, nesting + 1, [&](uint32_t number, int type, WireReader& r) {
+    if (number < 1 || number > N || type != kFixed64) return false;
+    v[number - 1] = r.Double();
+    return true;
+  });
+  if (!read) reader.failed = true;
+}
+// The same into an Eigen vector; a quaternion (w, x, y, z on the wire) also notes that
+// it was there (an absent one reads as the identity, a present one's absent fields as 0).
+void ReadVector(WireReader& reader, int nesting, Vector3& v) { ReadDoubles<3>(reader, nesting, v.data()); }
+void ReadRotation(WireReader& reader, int nesting, std::array<double, 4>& wxyz, bool& present) {
+  ReadDoubles<4>(reader, nesting, wxyz.data());
+  present = true;
+}
+Quaternion RotationOf(const std::array<double, 4>& wxyz, bool present) {
+  return present ? Quaternion(wxyz[0], wxyz[1], wxyz[2], wxyz[3]) : Quaternion::Identity();
+}
+
+// The fragment in body (a ModelFragment's bytes); false when it does not parse or
+// breaks the bounds.
+bool ReadFragment(std::span<const uint8_t> body, int nesting, ModelFragmentView& out) {
+  out = {};
+  const bool read = ReadMessage(body, nesting, [&](uint32_t number, int type, WireReader& r) {
+    if (number == 1 && type == kFixed64) {
+      out.version = r.Fixed<8>();
+    } else if (number == 2 && type == kFixed32) {
+      out.index = static_cast<uint32_t>(r.Fixed<4>());
+    } else if (number == 3 && type == kFixed32) {
+      out.count = static_cast<uint32_t>(r.Fixed<4>());
+    } else if (number == 4 && type == kLengthDelimited) {
+      out.data = r.Bytes();
+    } else {
+      return false;
+    }
+    return true;
+  });
+  return read && out.count >= 1 && out.count <= kMaxModelFragments && out.index < out.count &&
          out.data.size() <= kModelChunkSize;
 }
 
@@ -407,29 +467,6 @@ std::string_view DatagramErrorName(DatagramError error) {
   return "unknown";
 }
 
-struct DatagramCodec::Impl {
-  Impl() : arena(Options(block.data())) {}
-
-  static google::protobuf::ArenaOptions Options(char* initial_block) {
-    google::protobuf::ArenaOptions options;
-    options.initial_block = initial_block;
-    options.initial_block_size = kArenaBlockSize;
-    return options;
-  }
-
-  // Messages live on the arena, which is reset (not freed) after each use.
-  alignas(64) std::array<char, kArenaBlockSize> block;
-  google::protobuf::Arena arena;
-  // A command's bytes without its model fragment, for protobuf to parse.
-  std::array<uint8_t, kMaxCommandSize> rest;
-};
-
-DatagramCodec::DatagramCodec() : impl_(std::make_unique<Impl>()) {
-  // libsodium (the session keys' random bytes) starts once; thread-safe and idempotent.
-  if (sodium_init() < 0) std::abort();
-}
-
-DatagramCodec::~DatagramCodec() = default;
 
 std::size_t DatagramCodec::EncodeState(const DeviceStateSample& state, const TagKey& key,
                                        std::span<uint8_t> out) {
@@ -458,82 +495,111 @@ std::size_t DatagramCodec::EncodeCommand(const DeviceCommandSample& command, con
 DatagramError DatagramCodec::ParseState(std::span<const uint8_t> datagram, DeviceStateSample& out) {
   if (datagram.size() > kMaxStateSize) return DatagramError::kOversized;
   if (datagram.size() < kTagSize) return DatagramError::kMalformed;
-  auto* message = google::protobuf::Arena::CreateMessage<pb::DeviceState>(&impl_->arena);
-  const auto body = datagram.first(datagram.size() - kTagSize);
-  DatagramError result = DatagramError::kMalformed;
-  if (message->ParseFromArray(body.data(), static_cast<int>(body.size()))) {
-    out.session_id = message->session_id();
-    out.sequence = message->sequence();
-    out.send_time_ns = message->send_time_ns();
-    out.p_WD = FromProto(message->position());
-    out.q_WD = FromProto(message->orientation(), message->has_orientation());
-    out.v_WD = FromProto(message->velocity());
-    out.w_WD = FromProto(message->angular_velocity());
-    out.buttons = message->buttons();
-    out.f_sensed_W = FromProto(message->sensed_force());
-    out.f_held_W = FromProto(message->held_force());
-    out.rtt_us = message->rtt_us();
-    out.model_version = message->model_version();
-    out.avatar_W = FromProto(message->avatar());
-    out.energy_in = message->energy_in();
-    out.energy_out = message->energy_out();
-    out.states_held = message->states_held();
-    out.keepalive = message->keepalive();
-    result = DatagramError::kNone;
-  }
-  impl_->arena.Reset();
-  return result;
+  out = {};
+  std::array<double, 4> orientation{};
+  bool has_orientation = false;
+  const bool read = ReadMessage(datagram.first(datagram.size() - kTagSize), 0,
+                                [&](uint32_t number, int type, WireReader& r) {
+    if (type == kFixed32) {
+      switch (number) {
+        case 1: out.session_id = static_cast<uint32_t>(r.Fixed<4>()); return true;
+        case 8: out.buttons = static_cast<uint32_t>(r.Fixed<4>()); return true;
+        case 11: out.rtt_us = static_cast<uint32_t>(r.Fixed<4>()); return true;
+        default: return false;
+      }
+    }
+    if (type == kFixed64) {
+      switch (number) {
+        case 2: out.sequence = r.Fixed<8>(); return true;
+        case 3: out.send_time_ns = r.Fixed<8>(); return true;
+        case 12: out.model_version = r.Fixed<8>(); return true;
+        case 40: out.energy_in = r.Double(); return true;
+        case 41: out.energy_out = r.Double(); return true;
+        default: return false;
+      }
+    }
+    if (type == kLengthDelimited) {
+      switch (number) {
+        case 4: ReadVector(r, 0, out.p_WD); return true;
+        case 5: ReadRotation(r, 0, orientation, has_orientation); return true;
+        case 6: ReadVector(r, 0, out.v_WD); return true;
+        case 7: ReadVector(r, 0, out.w_WD); return true;
+        case 9: ReadVector(r, 0, out.f_sensed_W); return true;
+        case 10: ReadVector(r, 0, out.f_held_W); return true;
+        case 13: ReadVector(r, 0, out.avatar_W); return true;
+        default: return false;
+      }
+    }
+    if (type == kVarint) {
+      switch (number) {
+        case 42: out.states_held = r.Varint(); return true;
+        case 43: out.keepalive = r.Varint() != 0; return true;
+        default: return false;
+      }
+    }
+    return false;
+  });
+  if (!read) return DatagramError::kMalformed;
+  out.q_WD = RotationOf(orientation, has_orientation);
+  return DatagramError::kNone;
 }
 
 DatagramError DatagramCodec::ParseCommand(std::span<const uint8_t> datagram, DeviceCommandSample& out) {
   if (datagram.size() > kMaxCommandSize) return DatagramError::kOversized;
   if (datagram.size() < kTagSize) return DatagramError::kMalformed;
-  std::span<const uint8_t> body = datagram.first(datagram.size() - kTagSize);
-  // the model fragment, read here; protobuf parses the rest (a second one is malformed)
-  out.model = {};
-  WireReader reader{body};
-  std::size_t fragment_begin = 0, fragment_end = 0;
-  while (!reader.done()) {
-    const std::size_t field_begin = reader.at;
-    const uint64_t key = reader.Varint();
-    if ((key >> 3) == kModelField && (key & 7) == kLengthDelimited) {
-      const std::span<const uint8_t> fragment = reader.Bytes();
-      if (reader.failed || fragment_end != 0 || !ReadFragment(fragment, out.model)) return DatagramError::kMalformed;
-      fragment_begin = field_begin;
-      fragment_end = reader.at;
-    } else {
-      reader.Skip(static_cast<int>(key & 7));
+  out = {};
+  std::array<double, 4> orientation{};
+  bool has_orientation = false;
+  bool has_model = false;
+  const bool read = ReadMessage(datagram.first(datagram.size() - kTagSize), 0,
+                                [&](uint32_t number, int type, WireReader& r) {
+    if (type == kFixed32) {
+      switch (number) {
+        case 1: out.session_id = static_cast<uint32_t>(r.Fixed<4>()); return true;
+        case 11: out.flags = static_cast<uint32_t>(r.Fixed<4>()); return true;
+        default: return false;
+      }
     }
-  }
-  if (reader.failed) return DatagramError::kMalformed;
-  if (fragment_end != 0) {
-    uint8_t* rest = impl_->rest.data();
-    uint8_t* tail = std::copy(body.begin(), body.begin() + fragment_begin, rest);
-    tail = std::copy(body.begin() + fragment_end, body.end(), tail);
-    body = std::span<const uint8_t>(rest, static_cast<std::size_t>(tail - rest));
-  }
-  auto* message = google::protobuf::Arena::CreateMessage<pb::DeviceCommand>(&impl_->arena);
-  DatagramError result = DatagramError::kMalformed;
-  if (message->ParseFromArray(body.data(), static_cast<int>(body.size()))) {
-    out.session_id = message->session_id();
-    out.sequence = message->sequence();
-    out.echo_send_time_ns = message->echo_send_time_ns();
-    out.scene_version = message->scene_version();
-    out.f_W = FromProto(message->force());
-    out.tau_W = FromProto(message->torque());
-    out.p_command_W = FromProto(message->position());
-    out.q_command_W = FromProto(message->orientation(), message->has_orientation());
-    out.avatar_W = FromProto(message->avatar());
-    out.contact = message->contact();
-    out.flags = message->flags();
-    out.energy_in = message->energy_in();
-    out.energy_out = message->energy_out();
-    out.commands_held = message->commands_held();
-    out.command_number = message->command_number();
-    result = DatagramError::kNone;
-  }
-  impl_->arena.Reset();
-  return result;
+    if (type == kFixed64) {
+      switch (number) {
+        case 2: out.sequence = r.Fixed<8>(); return true;
+        case 3: out.echo_send_time_ns = r.Fixed<8>(); return true;
+        case 4: out.scene_version = r.Fixed<8>(); return true;
+        case 40: out.energy_in = r.Double(); return true;
+        case 41: out.energy_out = r.Double(); return true;
+        case 43: out.command_number = r.Fixed<8>(); return true;
+        default: return false;
+      }
+    }
+    if (type == kLengthDelimited) {
+      switch (number) {
+        case 5: ReadVector(r, 0, out.f_W); return true;
+        case 6: ReadVector(r, 0, out.tau_W); return true;
+        case 7: ReadVector(r, 0, out.p_command_W); return true;
+        case 8: ReadRotation(r, 0, orientation, has_orientation); return true;
+        case 9: ReadVector(r, 0, out.avatar_W); return true;
+        case 12: {
+          // one fragment at most, within its bounds (protobuf would merge a second)
+          const std::span<const uint8_t> fragment = r.Bytes();
+          if (r.failed || has_model || !ReadFragment(fragment, 1, out.model)) r.failed = true;
+          has_model = true;
+          return true;
+        }
+        default: return false;
+      }
+    }
+    if (type == kVarint) {
+      switch (number) {
+        case 10: out.contact = r.Varint() != 0; return true;
+        case 42: out.commands_held = r.Varint(); return true;
+        default: return false;
+      }
+    }
+    return false;
+  });
+  if (!read) return DatagramError::kMalformed;
+  out.q_command_W = RotationOf(orientation, has_orientation);
+  return DatagramError::kNone;
 }
 
 bool CheckTag(std::span<const uint8_t> datagram, const TagKey& key) {

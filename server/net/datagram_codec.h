@@ -3,16 +3,15 @@
 // DeviceCommand in protobuf's wire format, followed by a 16-byte keyed BLAKE2b tag under the
 // session's key (RFC 7693; the same bytes as libsodium's crypto_generichash).
 //
-// Both messages are written here by hand, in protobuf's wire format and byte for byte
-// what protobuf's serializer writes (its arena and generic serializer cost as much as the
-// rest of an encoding, tag included). A command may carry one fragment of a local model
-// (DeviceCommand.model, written as its last field); its bytes are read here by hand too:
-// a bytes field parsed by protobuf would allocate.
+// Both messages are written and read here by hand, in protobuf's wire format: written
+// byte for byte as protobuf's serializer writes them, read as its generated parser reads
+// them (its arena, generic serializer and parser cost as much as the rest of a datagram,
+// tag included; a bytes field parsed by protobuf would allocate). A command may carry
+// one fragment of a local model (DeviceCommand.model, written as its last field).
 //
-// A codec owns one protobuf arena over a fixed buffer, which decoding parses into, so
-// after construction encoding and decoding allocate nothing: one codec per thread, used
-// on the real-time path. Decoding never throws; a datagram that is too long, does not
-// parse or carries a bad tag yields an error code for the caller to count.
+// A codec holds no state: encoding and decoding allocate nothing and are real-time
+// safe. Decoding never throws; a datagram that is too long, does not parse or carries a
+// bad tag yields an error code for the caller to count.
 //
 // Tagging. Keyed BLAKE2b hashes the key, zero-padded to a 128-byte block, as the first
 // block of the message; a TagKey keeps the hash state after that block, so a tag costs
@@ -21,7 +20,6 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
-#include <memory>
 #include <span>
 #include <string_view>
 #include <Eigen/Core>
@@ -127,11 +125,6 @@ std::string_view DatagramErrorName(DatagramError error);
 
 class DatagramCodec {
  public:
-  DatagramCodec();
-  ~DatagramCodec();
-  DatagramCodec(const DatagramCodec&) = delete;
-  DatagramCodec& operator=(const DatagramCodec&) = delete;
-
   // Encode a message and its tag into out; returns the datagram's size, or 0 when it
   // does not fit in out (or in kMaxStateSize, kMaxCommandSize), or when the command's
   // model fragment is one ParseCommand would refuse. Real-time safe.
@@ -149,13 +142,9 @@ class DatagramCodec {
   // which key to check it with: CheckTag). kNone, kOversized or kMalformed; out is
   // unspecified unless kNone. A command's model fragment points into datagram. A
   // fragment of more than kMaxModelFragments, an index not below its count or more than
-  // kModelChunkSize bytes is malformed. Real-time safe.
+  // kModelChunkSize bytes is malformed, and so is a second fragment. Real-time safe.
   DatagramError ParseState(std::span<const uint8_t> datagram, DeviceStateSample& out);
   DatagramError ParseCommand(std::span<const uint8_t> datagram, DeviceCommandSample& out);
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
 };
 
 // Whether a datagram's last kTagSize bytes are the tag of the rest under key; constant

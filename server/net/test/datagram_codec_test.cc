@@ -1,6 +1,7 @@
 #include "server/net/datagram_codec.h"
 
 #include <algorithm>
+#include <bit>
 #include <iterator>
 #include <limits>
 #include <random>
@@ -623,6 +624,211 @@ TEST(DatagramCodec, TagKeyAndSessionKeyAgree) {
   EXPECT_FALSE(CheckTag({a.data(), size}, TagKey(TestKey(5))));
   // the default is the all-zero key
   EXPECT_EQ(TagKey().state(), TagKey(SessionKey{}).state());
+}
+
+// The codec reads both messages by hand; protobuf's generated parser is the oracle. The
+// inputs are random wire bytes: the message's own fields with their wire types and with
+// others, unknown fields, sub-messages (of their own random fields), groups nested up to
+// past protobuf's recursion limit, end-group tags out of place, tags of field 0, wire
+// types 6 and 7, overlong varints, tags and lengths; a third of them then have a byte
+// changed, inserted or cut. Whatever protobuf accepts, the codec must accept with the
+// same values (bit for bit), and refuse whatever protobuf refuses.
+class WireSoup {
+ public:
+  explicit WireSoup(uint64_t seed) : values_{std::mt19937_64(seed)} {}
+
+  // A message whose field n has wire type types(n) (-1: unknown) and is a message of
+  // Vec3's or Quat's fields when that type is length-delimited.
+  template <typename Types>
+  std::string Message(Types&& types, int depth) {
+    std::string out;
+    const int fields = static_cast<int>(Random() % 8);
+    for (int i = 0; i < fields; ++i) Field(out, types, depth);
+    return out;
+  }
+  std::string Mutated(std::string bytes) {
+    if (Random() % 3 != 0) return bytes;
+    const std::size_t at = bytes.empty() ? 0 : Random() % bytes.size();
+    switch (Random() % 3) {
+      case 0:
+        if (!bytes.empty()) bytes[at] = static_cast<char>(Random());
+        break;
+      case 1: bytes.insert(bytes.begin() + static_cast<std::ptrdiff_t>(at), static_cast<char>(Random())); break;
+      default: bytes.resize(at); break;
+    }
+    return bytes;
+  }
+  uint64_t Random() { return values_.random(); }
+
+ private:
+  static int Vec3Type(uint32_t n) { return n >= 1 && n <= 4 ? 1 : -1; }
+
+  void Varint(std::string& out, uint64_t v) {
+    // a tenth of them overlong: one to six more bytes than needed
+    int extra = Random() % 10 == 0 ? 1 + static_cast<int>(Random() % 6) : 0;
+    while (v >= 0x80 || extra > 0) {
+      out.push_back(static_cast<char>((v & 0x7f) | 0x80));
+      v >>= 7;
+      if (v == 0) --extra;
+    }
+    out.push_back(static_cast<char>(v));
+  }
+  void Tag(std::string& out, uint64_t number, int type) { Varint(out, number << 3 | static_cast<uint64_t>(type)); }
+
+  template <typename Types>
+  void Field(std::string& out, Types&& types, int depth) {
+    uint64_t number;
+    switch (Random() % 20) {
+      case 0: number = 0; break;
+      case 1: number = Random() % (uint64_t{1} << 29); break;
+      case 2: number = Random() % (uint64_t{1} << 32); break;  // a tag past 32 bits
+      case 3: case 4: case 5: number = 1 + Random() % 60; break;
+      default: number = 1 + Random() % 45; break;  // often the message's own
+    }
+    int type = types(static_cast<uint32_t>(number));
+    const uint64_t pick = Random() % 40;
+    if (type < 0 || pick < 6) type = static_cast<int>(pick < 3 ? Random() % 8 : std::array{0, 1, 2, 5}[Random() % 4]);
+    if (type == 4 && Random() % 2 == 0) type = 3;
+    Tag(out, number, type);
+    switch (type) {
+      case 0: Varint(out, Random() % 2 == 0 ? Random() % 3 : Random()); break;
+      case 1: {
+        const uint64_t bits = std::bit_cast<uint64_t>(values_.Double());
+        for (int i = 0; i < 8; ++i) out.push_back(static_cast<char>(bits >> (8 * i)));
+        break;
+      }
+      case 5:
+        for (int i = 0; i < 4; ++i) out.push_back(static_cast<char>(Random()));
+        break;
+      case 2: {
+        const std::string body = depth < 3 ? Message(Vec3Type, depth + 1) : std::string();
+        Varint(out, body.size() + (Random() % 30 == 0 ? 1 : 0));
+        out += body;
+        break;
+      }
+      case 3: {
+        // a group: fields, then its end (now and then another field's), or a chain of
+        // groups about protobuf's recursion limit deep
+        if (depth == 0 && Random() % 8 == 0) {
+          const int levels = 95 + static_cast<int>(Random() % 10);
+          for (int i = 1; i < levels; ++i) Tag(out, number, 3);
+          for (int i = 0; i < levels; ++i) Tag(out, number, 4);
+          break;
+        }
+        out += depth < 3 ? Message(Vec3Type, depth + 1) : std::string();
+        Tag(out, Random() % 10 == 0 ? number + 1 : number, 4);
+        break;
+      }
+      default: break;  // an end group out of place; wire types 6 and 7 carry nothing
+    }
+  }
+
+  RandomValues values_;
+};
+
+bool SameBits(double a, double b) { return std::bit_cast<uint64_t>(a) == std::bit_cast<uint64_t>(b); }
+void ExpectSameBits(const Vector3& a, const v1::Vec3& b) {
+  EXPECT_TRUE(SameBits(a.x(), b.x()) && SameBits(a.y(), b.y()) && SameBits(a.z(), b.z()))
+      << a.transpose() << " against " << b.ShortDebugString();
+}
+void ExpectSameBits(const Quaternion& a, const v1::Quat& b, bool present) {
+  const Quaternion expected = present ? Quaternion(b.w(), b.x(), b.y(), b.z()) : Quaternion::Identity();
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(SameBits(a.coeffs()[i], expected.coeffs()[i]));
+}
+std::vector<uint8_t> WithTagRoom(const std::string& body) {
+  std::vector<uint8_t> datagram(body.begin(), body.end());
+  datagram.resize(datagram.size() + kTagSize, 0);
+  return datagram;
+}
+
+TEST(DatagramCodec, ReadsStatesAsProtobufsParserDoes) {
+  DatagramCodec codec;
+  WireSoup soup(71);
+  const auto types = [](uint32_t n) {
+    if (n == 1 || n == 8 || n == 11) return 5;
+    if (n == 2 || n == 3 || n == 12 || n == 40 || n == 41) return 1;
+    if ((n >= 4 && n <= 7) || n == 9 || n == 10 || n == 13) return 2;
+    if (n == 42 || n == 43) return 0;
+    return -1;
+  };
+  int accepted = 0;
+  for (int i = 0; i < 40000; ++i) {
+    const std::string body = soup.Mutated(soup.Message(types, 0));
+    if (body.size() + kTagSize > kMaxStateSize) continue;
+    SCOPED_TRACE(::testing::Message() << "case " << i << ": " << ::testing::PrintToString(body));
+    v1::DeviceState expected;
+    const bool parses = expected.ParseFromString(body);
+    DeviceStateSample state;
+    state.session_id = 99;  // whatever was there before does not show through
+    const DatagramError error = codec.ParseState(WithTagRoom(body), state);
+    ASSERT_EQ(error == DatagramError::kNone, parses) << DatagramErrorName(error);
+    if (!parses) continue;
+    ++accepted;
+    EXPECT_EQ(state.session_id, expected.session_id());
+    EXPECT_EQ(state.sequence, expected.sequence());
+    EXPECT_EQ(state.send_time_ns, expected.send_time_ns());
+    ExpectSameBits(state.p_WD, expected.position());
+    ExpectSameBits(state.q_WD, expected.orientation(), expected.has_orientation());
+    ExpectSameBits(state.v_WD, expected.velocity());
+    ExpectSameBits(state.w_WD, expected.angular_velocity());
+    EXPECT_EQ(state.buttons, expected.buttons());
+    ExpectSameBits(state.f_sensed_W, expected.sensed_force());
+    ExpectSameBits(state.f_held_W, expected.held_force());
+    EXPECT_EQ(state.rtt_us, expected.rtt_us());
+    EXPECT_EQ(state.model_version, expected.model_version());
+    ExpectSameBits(state.avatar_W, expected.avatar());
+    EXPECT_TRUE(SameBits(state.energy_in, expected.energy_in()));
+    EXPECT_TRUE(SameBits(state.energy_out, expected.energy_out()));
+    EXPECT_EQ(state.states_held, expected.states_held());
+    EXPECT_EQ(state.keepalive, expected.keepalive());
+  }
+  // both sides of the line are well sampled
+  EXPECT_GT(accepted, 8000);
+  EXPECT_LT(accepted, 32000);
+}
+
+TEST(DatagramCodec, ReadsCommandsAsProtobufsParserDoes) {
+  DatagramCodec codec;
+  WireSoup soup(72);
+  const auto types = [](uint32_t n) {
+    if (n == 1 || n == 11) return 5;
+    if ((n >= 2 && n <= 4) || n == 40 || n == 41 || n == 43) return 1;
+    if (n >= 5 && n <= 9) return 2;
+    if (n == 10 || n == 42) return 0;
+    return -1;  // the model fragment (12) has tests of its own
+  };
+  int accepted = 0;
+  for (int i = 0; i < 40000; ++i) {
+    const std::string body = soup.Mutated(soup.Message(types, 0));
+    SCOPED_TRACE(::testing::Message() << "case " << i << ": " << ::testing::PrintToString(body));
+    v1::DeviceCommand expected;
+    const bool parses = expected.ParseFromString(body);
+    DeviceCommandSample command;
+    command.flags = 99;
+    const DatagramError error = codec.ParseCommand(WithTagRoom(body), command);
+    if (parses && expected.has_model()) continue;  // one fragment, within bounds: the codec's own rule
+    ASSERT_EQ(error == DatagramError::kNone, parses) << DatagramErrorName(error);
+    if (!parses) continue;
+    ++accepted;
+    EXPECT_EQ(command.session_id, expected.session_id());
+    EXPECT_EQ(command.sequence, expected.sequence());
+    EXPECT_EQ(command.echo_send_time_ns, expected.echo_send_time_ns());
+    EXPECT_EQ(command.scene_version, expected.scene_version());
+    ExpectSameBits(command.f_W, expected.force());
+    ExpectSameBits(command.tau_W, expected.torque());
+    ExpectSameBits(command.p_command_W, expected.position());
+    ExpectSameBits(command.q_command_W, expected.orientation(), expected.has_orientation());
+    ExpectSameBits(command.avatar_W, expected.avatar());
+    EXPECT_EQ(command.contact, expected.contact());
+    EXPECT_EQ(command.flags, expected.flags());
+    EXPECT_EQ(command.model.count, 0u);
+    EXPECT_TRUE(SameBits(command.energy_in, expected.energy_in()));
+    EXPECT_TRUE(SameBits(command.energy_out, expected.energy_out()));
+    EXPECT_EQ(command.commands_held, expected.commands_held());
+    EXPECT_EQ(command.command_number, expected.command_number());
+  }
+  EXPECT_GT(accepted, 8000);
+  EXPECT_LT(accepted, 32000);
 }
 
 TEST(DatagramCodec, RefusesOversizedShortAndGarbage) {
