@@ -554,6 +554,11 @@ PreparedTriangle PrepareTriangle(const Triangle& triangle, int index) {
   return prepared;
 }
 
+bool LiesFartherThan(const PreparedTriangle& triangle, const Vector3& p, double limit) {
+  return LowerDistanceExceeds(triangle.normal, triangle.centroid, triangle.bounding_radius * triangle.bounding_radius,
+                              p, Vector3::Zero(), limit * limit);
+}
+
 int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<PreparedTriangle> out) {
   const Vector3& a = region.p0;
   const Vector3 d = region.p1 - region.p0;

@@ -96,6 +96,12 @@ struct PreparedTriangle {
 
 PreparedTriangle PrepareTriangle(const Triangle& triangle, int index);
 
+// Whether the prepared triangle lies farther than limit from p, by the lower bound
+// SweepSphereTriangles passes triangles over with: p's height over the triangle's plane
+// beside its distance within the plane from the bounding circle. Exact but for a few
+// ulps of the squares (callers keep a slack above that).
+bool LiesFartherThan(const PreparedTriangle& triangle, const Vector3& p, double limit);
+
 // The triangles of bvh (its non-degenerate ones) that may lie within region.radius
 // (>= 0) of the segment region.p0 -> region.p1 (a ball when they are equal), prepared, in
 // no particular order: writes them to out and returns how many there are, or

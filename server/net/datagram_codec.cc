@@ -76,10 +76,20 @@ inline void Rounds(uint64_t (&v)[16], const uint64_t (&m)[16], std::integer_sequ
   (Round<R>(v, m), ...);
 }
 
-// Mixes one block into h; t: bytes hashed up to the end of this block.
-void Compress(std::array<uint64_t, 8>& h, const uint8_t* block, uint64_t t, bool last) {
-  uint64_t m[16];
-  for (int i = 0; i < 16; ++i) m[i] = Load64(block + 8 * i);
+// A block's 16 message words: n bytes from p (n <= 128), zero-padded.
+void LoadBlock(const uint8_t* p, std::size_t n, uint64_t (&m)[16]) {
+  std::size_t i = 0;
+  for (; 8 * i + 8 <= n; ++i) m[i] = Load64(p + 8 * i);
+  if (i == 16) return;
+  uint64_t partial = 0;
+  for (std::size_t b = 8 * i; b < n; ++b) partial |= uint64_t{p[b]} << (8 * (b - 8 * i));
+  m[i++] = partial;
+  for (; i < 16; ++i) m[i] = 0;
+}
+
+// Mixes one block (its message words m) into h; t: bytes hashed up to the end of this
+// block.
+void Compress(std::array<uint64_t, 8>& h, const uint64_t (&m)[16], uint64_t t, bool last) {
   uint64_t v[16];
   for (int i = 0; i < 8; ++i) {
     v[i] = h[i];
@@ -97,11 +107,7 @@ std::array<uint64_t, 8> InitialState() {
   h[0] ^= 0x01010000 ^ (kSessionKeySize << 8) ^ kTagSize;
   return h;
 }
-std::array<uint8_t, kBlockSize> KeyBlock(const SessionKey& key) {
-  std::array<uint8_t, kBlockSize> block{};
-  std::copy(key.begin(), key.end(), block.begin());
-  return block;
-}
+
 
 // ---- protobuf's wire format, for DeviceCommand.model (field 12) ----
 constexpr uint32_t kModelField = 12;
@@ -428,31 +434,33 @@ std::size_t SealInto(std::span<const uint8_t> message, const ModelFragmentView* 
 }  // namespace
 
 TagKey::TagKey(const SessionKey& key) : key_(key), h_(InitialState()) {
-  const std::array<uint8_t, kBlockSize> block = KeyBlock(key);
-  Compress(h_, block.data(), kBlockSize, false);
+  uint64_t m[16];
+  LoadBlock(key.data(), key.size(), m);  // the key, zero-padded to a block
+  Compress(h_, m, kBlockSize, false);
 }
 
 void ComputeTag(std::span<const uint8_t> message, const TagKey& key, uint8_t* tag) {
   std::array<uint64_t, 8> h;
   uint64_t t = kBlockSize;
-  std::array<uint8_t, kBlockSize> last{};
+  uint64_t m[16];
   if (message.empty()) {
     // the key's block is the last one
     h = InitialState();
-    last = KeyBlock(key.key());
+    LoadBlock(key.key().data(), key.key().size(), m);
   } else {
     // from the state after the key's block: every full block but the last, then the
     // rest zero-padded (a message of whole blocks ends on a full one)
     h = key.state();
     while (message.size() > kBlockSize) {
       t += kBlockSize;
-      Compress(h, message.data(), t, false);
+      LoadBlock(message.data(), kBlockSize, m);
+      Compress(h, m, t, false);
       message = message.subspan(kBlockSize);
     }
-    std::copy(message.begin(), message.end(), last.begin());
+    LoadBlock(message.data(), message.size(), m);
     t += message.size();
   }
-  Compress(h, last.data(), t, true);
+  Compress(h, m, t, true);
   for (std::size_t i = 0; i < kTagSize / 8; ++i) Store64(h[i], tag + 8 * i);
 }
 

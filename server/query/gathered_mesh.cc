@@ -16,6 +16,15 @@ double KnownReach(const GatheredMesh& near, const Vector3& p) {
   return region.radius - geometry::CalcPointSegmentDistance(p, region.p0, region.p1) - kGatheredSlack;
 }
 
+// Whether the triangle lies farther from p than limit by more than the bound's rounding
+// could hide and the exact test's could reveal: so far (1e-12 of the coordinates'
+// magnitude, a hundred times their rounding) that passing it over never changes an answer,
+// ties included.
+bool PassedOver(const geometry::PreparedTriangle& t, const Vector3& p, double p_scale, double limit) {
+  const double slack = 1e-12 * (p_scale + t.centroid.cwiseAbs().maxCoeff() + t.bounding_radius);
+  return geometry::LiesFartherThan(t, p, limit + slack);
+}
+
 }  // namespace
 
 std::optional<geometry::MeshClosestPoint> FindGatheredClosestPoint(const GatheredMesh& near, const Vector3& p_B,
@@ -28,7 +37,7 @@ std::optional<geometry::MeshClosestPoint> FindGatheredClosestPoint(const Gathere
   // FindClosestPointOnMesh's rule: within max_distance, then strictly nearer; here of
   // equally near triangles the first in the span, whichever is tried first. The one
   // with the nearest box is tried first, so that the others are mostly passed over by
-  // their boxes.
+  // their boxes or their planes.
   double best_d2 = max_distance * max_distance;
   int seed = -1;
   double seed_d2 = best_d2;
@@ -38,6 +47,8 @@ std::optional<geometry::MeshClosestPoint> FindGatheredClosestPoint(const Gathere
   }
   int best = -1;
   geometry::ClosestPointOnTriangle best_point;
+  double limit = max_distance;  // sqrt(best_d2): what a triangle must lie beyond to be passed over
+  const double p_scale = p_B.cwiseAbs().maxCoeff();
   const auto consider = [&](int i) {
     const geometry::ClosestPointOnTriangle c = geometry::FindClosestPointOnTriangle(p_B, triangles[i].triangle);
     if (!(c.distance_squared <= best_d2)) return;
@@ -45,12 +56,16 @@ std::optional<geometry::MeshClosestPoint> FindGatheredClosestPoint(const Gathere
     best = i;
     best_d2 = c.distance_squared;
     best_point = c;
+    limit = std::sqrt(best_d2);
   };
   if (seed >= 0) {
     if (!geometry::WorkMeter::Charge(1)) return std::nullopt;
     consider(seed);
     for (int i = 0; i < n; ++i) {
-      if (i == seed || geometry::CalcPointAabbDistanceSquared(p_B, triangles[i].box) > best_d2) continue;
+      if (i == seed || geometry::CalcPointAabbDistanceSquared(p_B, triangles[i].box) > best_d2 ||
+          PassedOver(triangles[i], p_B, p_scale, limit)) {
+        continue;
+      }
       if (!geometry::WorkMeter::Charge(1)) return std::nullopt;
       consider(i);
     }
