@@ -237,13 +237,26 @@ bool LowerDistanceExceeds(const Vector3& n, const Vector3& centroid, double boun
   const double height = height_a * height_b <= 0 ? 0 : std::min(std::abs(height_a), std::abs(height_b));
   const double left = limit_squared - height * height;
   if (left < 0) return true;
-  // in the plane: the start's and the motion's components along it
+  // in the plane: the start's and the motion's components along it; the motion's point
+  // nearest the centroid's foot is at lateral + (toward / drift^2) drift where it lies
+  // inside the motion, and there the bound is taken times drift^2 (no division)
   const Vector3 lateral = offset - height_a * n;
   const Vector3 drift = d - climb * n;
   const double drift_squared = drift.squaredNorm();
-  const double nearest = drift_squared > 0 ? std::clamp(-lateral.dot(drift) / drift_squared, 0.0, 1.0) : 0.0;
-  const double excess = (lateral + nearest * drift).squaredNorm() - bounding_radius_squared - left;
-  return excess > 0 && excess * excess > 4 * bounding_radius_squared * left;
+  const double toward = -lateral.dot(drift);
+  double scale = 1;  // what excess is multiplied by
+  double excess;
+  // (a motion under 1e-75 m, far inside the callers' slack, counts as none: the
+  // scale's square would underflow)
+  if (!(toward > 0) || drift_squared < 1e-150) {
+    excess = lateral.squaredNorm() - bounding_radius_squared - left;
+  } else if (toward >= drift_squared) {
+    excess = (lateral + drift).squaredNorm() - bounding_radius_squared - left;
+  } else {
+    scale = drift_squared;
+    excess = drift_squared * (lateral.squaredNorm() - bounding_radius_squared - left) - toward * toward;
+  }
+  return excess > 0 && excess * excess > 4 * bounding_radius_squared * left * scale * scale;
 }
 
 // Whether a sweep of radius > 0 stays farther than its reach from a prepared triangle,

@@ -244,6 +244,36 @@ TEST(GatherMeshTriangles, HoldsEveryTriangleWithinTheRegionAndFewMore) {
   EXPECT_GT(kept_beyond, 0);
 }
 
+// Long thin sausages over a fine mesh: the distance bound's case where the point of the
+// segment nearest a triangle's centre lies inside the segment decides most triangles
+// near the edge of the region, and none within it may be left out.
+TEST(GatherMeshTriangles, AlongLongSegmentsHoldsEveryTriangleWithinTheRegion) {
+  // 32,000 triangles of about 1.4 mm
+  const auto mesh = std::make_shared<const geometry::TriangleMesh>(geometry::MakeIcosphere(40, 0.05));
+  const geometry::MeshBvh bvh(mesh);
+  std::vector<geometry::PreparedTriangle> out(4000);
+  std::mt19937_64 random(16);
+  std::uniform_real_distribution<double> unit(0, 1);
+  for (int trial = 0; trial < 40; ++trial) {
+    // from just over the surface, 1 to 2 cm across it, 0.2 to 1 mm wide
+    const Vector3 a = (0.05 + 0.001 * unit(random)) * RandomDirection(random);
+    const Vector3 b = a + (0.01 + 0.01 * unit(random)) * RandomDirection(random).cross(a.normalized());
+    const geometry::Capsule region{a, b, 0.0002 + 0.0008 * unit(random)};
+    const int found = geometry::GatherMeshTriangles(bvh, region, out);
+    ASSERT_LE(found, static_cast<int>(out.size())) << trial;
+    std::vector<int> got;
+    for (int k = 0; k < found; ++k) got.push_back(out[k].index);
+    std::sort(got.begin(), got.end());
+    for (int i = 0; i < mesh->num_triangles(); ++i) {
+      const double distance = geometry::CalcCapsuleTriangleContact({a, b, 0}, mesh->triangle(i)).distance;
+      if (distance > region.radius) continue;
+      EXPECT_TRUE(std::binary_search(got.begin(), got.end(), i))
+          << trial << ": triangle " << i << " at " << distance << " of " << region.radius << " left out";
+    }
+    if (HasFailure()) return;
+  }
+}
+
 // The walk tests the BVH's boxes in float. Here each triangle has a corner that is its
 // box's greatest in every axis, and a ball reaches from beyond it in every axis exactly
 // to it, so the triangle's boxes lie at the very radius; every triangle within the
