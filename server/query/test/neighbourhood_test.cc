@@ -199,9 +199,29 @@ TEST(Neighbourhood, GathersNothingFromBadInputAndAsksTheScene) {
   EXPECT_FALSE(none.gathered());
 }
 
-// The gathered triangles hold every triangle within the radius of the segment (the exact
-// distance, geometry::CalcCapsuleTriangleContact, over every triangle of the mesh) and
-// none beyond the ball about it that the BVH is walked with.
+// The original indices of the triangles GatherMeshTriangles keeps for region, sorted,
+// after checking that it keeps each once and every triangle of the mesh within the
+// radius of the segment (the exact distance, geometry::CalcCapsuleTriangleContact).
+std::vector<int> ExpectGathersEveryTriangleWithin(const geometry::MeshBvh& bvh, const geometry::Capsule& region,
+                                                  std::vector<geometry::PreparedTriangle>& out, int trial) {
+  const int found = geometry::GatherMeshTriangles(bvh, region, out);
+  EXPECT_LE(found, static_cast<int>(out.size())) << trial;
+  std::vector<int> got;
+  for (int k = 0; k < std::min(found, static_cast<int>(out.size())); ++k) got.push_back(out[k].index);
+  std::sort(got.begin(), got.end());
+  EXPECT_EQ(std::adjacent_find(got.begin(), got.end()), got.end()) << trial << ": a triangle twice";
+  const geometry::TriangleMesh& mesh = bvh.mesh();
+  for (int i = 0; i < mesh.num_triangles(); ++i) {
+    const double distance = geometry::CalcCapsuleTriangleContact({region.p0, region.p1, 0}, mesh.triangle(i)).distance;
+    if (distance > region.radius) continue;
+    EXPECT_TRUE(std::binary_search(got.begin(), got.end(), i))
+        << trial << ": triangle " << i << " at " << distance << " of " << region.radius << " left out";
+  }
+  return got;
+}
+
+// The gathered triangles hold every triangle within the radius of the segment and none
+// beyond the ball about it that the BVH is walked with.
 TEST(GatherMeshTriangles, HoldsEveryTriangleWithinTheRegionAndFewMore) {
   const auto mesh = std::make_shared<const geometry::TriangleMesh>(geometry::MakeIcosphere(20, 0.05));
   const geometry::MeshBvh bvh(mesh);
@@ -214,28 +234,20 @@ TEST(GatherMeshTriangles, HoldsEveryTriangleWithinTheRegionAndFewMore) {
     // balls, and segments up to 1 cm long
     const Vector3 b = trial % 2 ? Vector3(a + 0.01 * unit(random) * RandomDirection(random)) : a;
     const geometry::Capsule region{a, b, 0.001 * (1 + trial % 7)};
-    const int found = geometry::GatherMeshTriangles(bvh, region, out);
-    ASSERT_LE(found, static_cast<int>(out.size())) << trial;
-    std::vector<int> got;
-    for (int k = 0; k < found; ++k) got.push_back(out[k].index);
-    std::sort(got.begin(), got.end());
-    ASSERT_EQ(std::adjacent_find(got.begin(), got.end()), got.end()) << trial << ": a triangle twice";
-    for (int i = 0; i < mesh->num_triangles(); ++i) {
+    const std::vector<int> got = ExpectGathersEveryTriangleWithin(bvh, region, out, trial);
+    for (const int i : got) {
       const geometry::Triangle tri = mesh->triangle(i);
       const double distance = geometry::CalcCapsuleTriangleContact({a, b, 0}, tri).distance;
-      const bool kept = std::binary_search(got.begin(), got.end(), i);
-      if (distance <= region.radius) {
-        EXPECT_TRUE(kept) << trial << ": triangle " << i << " at " << distance << " left out";
-      } else if (kept) {
-        // its box met the ball about the segment, so it lies within that ball's radius
-        // and the box's diagonal (at most 2 sqrt(3) bounding radii)
-        ++kept_beyond;
-        const double rho = geometry::PrepareTriangle(tri, i).bounding_radius;
-        EXPECT_LE(distance, region.radius + 0.5 * (b - a).norm() + 2 * std::sqrt(3.0) * rho + 1e-12)
-            << trial << ": triangle " << i;
-      }
+      if (distance <= region.radius) continue;
+      // kept beyond: its box met the ball about the segment, so it lies within that
+      // ball's radius and the box's diagonal (at most 2 sqrt(3) bounding radii)
+      ++kept_beyond;
+      const double rho = geometry::PrepareTriangle(tri, i).bounding_radius;
+      EXPECT_LE(distance, region.radius + 0.5 * (b - a).norm() + 2 * std::sqrt(3.0) * rho + 1e-12)
+          << trial << ": triangle " << i;
     }
     // too small a buffer: says so
+    const int found = static_cast<int>(got.size());
     if (found > 2) {
       EXPECT_EQ(geometry::GatherMeshTriangles(bvh, region, std::span(out).first(found - 1)), found);
     }
@@ -258,18 +270,7 @@ TEST(GatherMeshTriangles, AlongLongSegmentsHoldsEveryTriangleWithinTheRegion) {
     // from just over the surface, 1 to 2 cm across it, 0.2 to 1 mm wide
     const Vector3 a = (0.05 + 0.001 * unit(random)) * RandomDirection(random);
     const Vector3 b = a + (0.01 + 0.01 * unit(random)) * RandomDirection(random).cross(a.normalized());
-    const geometry::Capsule region{a, b, 0.0002 + 0.0008 * unit(random)};
-    const int found = geometry::GatherMeshTriangles(bvh, region, out);
-    ASSERT_LE(found, static_cast<int>(out.size())) << trial;
-    std::vector<int> got;
-    for (int k = 0; k < found; ++k) got.push_back(out[k].index);
-    std::sort(got.begin(), got.end());
-    for (int i = 0; i < mesh->num_triangles(); ++i) {
-      const double distance = geometry::CalcCapsuleTriangleContact({a, b, 0}, mesh->triangle(i)).distance;
-      if (distance > region.radius) continue;
-      EXPECT_TRUE(std::binary_search(got.begin(), got.end(), i))
-          << trial << ": triangle " << i << " at " << distance << " of " << region.radius << " left out";
-    }
+    ExpectGathersEveryTriangleWithin(bvh, {a, b, 0.0002 + 0.0008 * unit(random)}, out, trial);
     if (HasFailure()) return;
   }
 }
