@@ -45,13 +45,12 @@ DeviceCommandSample TypicalCommand() {
 }
 
 void BM_EncodeState(benchmark::State& run) {
-  DatagramCodec codec;
   const TagKey key(BenchKey());
   const DeviceStateSample state = TypicalState();
   std::array<uint8_t, kMaxDatagramSize> out;
   std::size_t size = 0;
   for (auto _ : run) {
-    size = codec.EncodeState(state, key, out);
+    size = EncodeState(state, key, out);
     benchmark::DoNotOptimize(out.data());
   }
   run.counters["bytes"] = static_cast<double>(size);
@@ -59,14 +58,13 @@ void BM_EncodeState(benchmark::State& run) {
 BENCHMARK(BM_EncodeState);
 
 void BM_DecodeState(benchmark::State& run) {
-  DatagramCodec codec;
   const TagKey key(BenchKey());
   std::array<uint8_t, kMaxDatagramSize> bytes;
-  const std::size_t size = codec.EncodeState(TypicalState(), key, bytes);
+  const std::size_t size = EncodeState(TypicalState(), key, bytes);
   const std::span<const uint8_t> datagram(bytes.data(), size);
   DeviceStateSample state;
   for (auto _ : run) {
-    const bool ok = CheckTag(datagram, key) && codec.ParseState(datagram, state) == DatagramError::kNone;
+    const bool ok = CheckTag(datagram, key) && ParseState(datagram, state) == DatagramError::kNone;
     benchmark::DoNotOptimize(ok);
     benchmark::DoNotOptimize(state);
   }
@@ -75,13 +73,12 @@ void BM_DecodeState(benchmark::State& run) {
 BENCHMARK(BM_DecodeState);
 
 void BM_EncodeCommand(benchmark::State& run) {
-  DatagramCodec codec;
   const TagKey key(BenchKey());
   const DeviceCommandSample command = TypicalCommand();
   std::array<uint8_t, kMaxDatagramSize> out;
   std::size_t size = 0;
   for (auto _ : run) {
-    size = codec.EncodeCommand(command, key, out);
+    size = EncodeCommand(command, key, out);
     benchmark::DoNotOptimize(out.data());
   }
   run.counters["bytes"] = static_cast<double>(size);
@@ -89,14 +86,13 @@ void BM_EncodeCommand(benchmark::State& run) {
 BENCHMARK(BM_EncodeCommand);
 
 void BM_DecodeCommand(benchmark::State& run) {
-  DatagramCodec codec;
   const TagKey key(BenchKey());
   std::array<uint8_t, kMaxDatagramSize> bytes;
-  const std::size_t size = codec.EncodeCommand(TypicalCommand(), key, bytes);
+  const std::size_t size = EncodeCommand(TypicalCommand(), key, bytes);
   const std::span<const uint8_t> datagram(bytes.data(), size);
   DeviceCommandSample command;
   for (auto _ : run) {
-    const bool ok = CheckTag(datagram, key) && codec.ParseCommand(datagram, command) == DatagramError::kNone;
+    const bool ok = CheckTag(datagram, key) && ParseCommand(datagram, command) == DatagramError::kNone;
     benchmark::DoNotOptimize(ok);
     benchmark::DoNotOptimize(command);
   }
@@ -106,10 +102,9 @@ BENCHMARK(BM_DecodeCommand);
 
 // The tag check alone (keyed BLAKE2b over a state's bytes): the crypto share of a decode.
 void BM_CheckTag(benchmark::State& run) {
-  DatagramCodec codec;
   const TagKey key(BenchKey());
   std::array<uint8_t, kMaxDatagramSize> bytes;
-  const std::size_t size = codec.EncodeState(TypicalState(), key, bytes);
+  const std::size_t size = EncodeState(TypicalState(), key, bytes);
   const std::span<const uint8_t> datagram(bytes.data(), size);
   for (auto _ : run) benchmark::DoNotOptimize(CheckTag(datagram, key));
   run.counters["bytes"] = static_cast<double>(size);
@@ -118,10 +113,9 @@ BENCHMARK(BM_CheckTag);
 
 // The same check with the plain session key: the key's block hashed again every call.
 void BM_CheckTagUnprepared(benchmark::State& run) {
-  DatagramCodec codec;
   const SessionKey key = BenchKey();
   std::array<uint8_t, kMaxDatagramSize> bytes;
-  const std::size_t size = codec.EncodeState(TypicalState(), key, bytes);
+  const std::size_t size = EncodeState(TypicalState(), key, bytes);
   const std::span<const uint8_t> datagram(bytes.data(), size);
   for (auto _ : run) benchmark::DoNotOptimize(CheckTag(datagram, key));
   run.counters["bytes"] = static_cast<double>(size);

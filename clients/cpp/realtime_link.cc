@@ -90,7 +90,7 @@ bool RealtimeLink::Send(net::DeviceStateSample& state) {
   const int64_t send_real_ns = RealtimeNowNs();
   send_mono_ns_ = MonotonicNowNs();
   state.send_time_ns = static_cast<uint64_t>(send_mono_ns_);
-  const std::size_t size = codec_.EncodeState(state, key_, send_buffer_);
+  const std::size_t size = net::EncodeState(state, key_, send_buffer_);
   // a state that does not fit, or a send the kernel refuses, is not waited for
   if (size == 0 || send(fd_, send_buffer_.data(), size, MSG_DONTWAIT) != static_cast<ssize_t>(size)) {
     ++counters_.send_errors;
@@ -134,9 +134,9 @@ void RealtimeLink::Expire() {
 }
 
 bool RealtimeLink::Parse(std::span<const uint8_t> datagram) {
-  if (peer_ == LinkPeer::kServer) return codec_.ParseCommand(datagram, incoming_) == net::DatagramError::kNone;
+  if (peer_ == LinkPeer::kServer) return net::ParseCommand(datagram, incoming_) == net::DatagramError::kNone;
   // echo: our own state back, read as a command that renders nothing and holds the pose
-  if (codec_.ParseState(datagram, echoed_) != net::DatagramError::kNone) return false;
+  if (net::ParseState(datagram, echoed_) != net::DatagramError::kNone) return false;
   incoming_ = net::DeviceCommandSample{};
   incoming_.session_id = echoed_.session_id;
   incoming_.sequence = echoed_.sequence;

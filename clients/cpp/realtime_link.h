@@ -156,7 +156,6 @@ class RealtimeLink {
   net::TagKey key_;  // prepared once: each tag is one compression
   LinkPeer peer_;
   int fd_ = -1;
-  net::DatagramCodec codec_;
 
   uint64_t last_sequence_ = 0;  // the last state sent
   int64_t send_mono_ns_ = 0;

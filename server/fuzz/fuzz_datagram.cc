@@ -29,7 +29,6 @@
 namespace hapticd::fuzz {
 namespace {
 
-using net::DatagramCodec;
 using net::DatagramError;
 using net::DeviceCommandSample;
 using net::DeviceStateSample;
@@ -125,7 +124,6 @@ void CheckError(DatagramError error, std::size_t size, std::size_t limit) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   using namespace hapticd::fuzz;
   using namespace hapticd::net;
-  static DatagramCodec codec;
   static const SessionKey golden_key = GoldenKey();
   const std::span<const uint8_t> datagram(data, size);
 
@@ -135,23 +133,23 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   }
 
   const auto encode_state = [](const DeviceStateSample& s, const SessionKey& k, std::span<uint8_t> out) {
-    return codec.EncodeState(s, k, out);
+    return EncodeState(s, k, out);
   };
-  const auto parse_state = [](std::span<const uint8_t> d, DeviceStateSample& s) { return codec.ParseState(d, s); };
+  const auto parse_state = [](std::span<const uint8_t> d, DeviceStateSample& s) { return ParseState(d, s); };
   DeviceStateSample state;
-  const DatagramError state_error = codec.ParseState(datagram, state);
+  const DatagramError state_error = ParseState(datagram, state);
   CheckError(state_error, size, kMaxStateSize);
   CheckAgreesWithProtobuf<hapticd::v1::DeviceState>(datagram, state_error, kMaxStateSize);
   if (state_error == DatagramError::kNone) CheckRoundTrip(state, golden_key, encode_state, parse_state);
 
   const auto encode_command = [](const DeviceCommandSample& c, const SessionKey& k, std::span<uint8_t> out) {
-    return codec.EncodeCommand(c, k, out);
+    return EncodeCommand(c, k, out);
   };
   const auto parse_command = [](std::span<const uint8_t> d, DeviceCommandSample& c) {
-    return codec.ParseCommand(d, c);
+    return ParseCommand(d, c);
   };
   DeviceCommandSample command;
-  const DatagramError command_error = codec.ParseCommand(datagram, command);
+  const DatagramError command_error = ParseCommand(datagram, command);
   CheckError(command_error, size, kMaxCommandSize);
   CheckAgreesWithProtobuf<hapticd::v1::DeviceCommand>(datagram, command_error, kMaxCommandSize);
   if (command_error == DatagramError::kNone) CheckRoundTrip(command, golden_key, encode_command, parse_command);

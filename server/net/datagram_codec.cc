@@ -482,7 +482,7 @@ std::string_view DatagramErrorName(DatagramError error) {
 }
 
 
-std::size_t DatagramCodec::EncodeState(const DeviceStateSample& state, const TagKey& key,
+std::size_t EncodeState(const DeviceStateSample& state, const TagKey& key,
                                        std::span<uint8_t> out) {
   std::array<uint8_t, kMaxMessageBytes> message;
   MessageWriter writer(message.data());
@@ -491,7 +491,7 @@ std::size_t DatagramCodec::EncodeState(const DeviceStateSample& state, const Tag
   return SealInto(std::span(message).first(size), nullptr, key, out, kMaxStateSize);
 }
 
-std::size_t DatagramCodec::EncodeCommand(const DeviceCommandSample& command, const TagKey& key,
+std::size_t EncodeCommand(const DeviceCommandSample& command, const TagKey& key,
                                          std::span<uint8_t> out) {
   // a fragment the parser would refuse is not sent either
   const ModelFragmentView& model = command.model;
@@ -506,7 +506,7 @@ std::size_t DatagramCodec::EncodeCommand(const DeviceCommandSample& command, con
   return SealInto(std::span(message).first(size), &command.model, key, out, kMaxCommandSize);
 }
 
-DatagramError DatagramCodec::ParseState(std::span<const uint8_t> datagram, DeviceStateSample& out) {
+DatagramError ParseState(std::span<const uint8_t> datagram, DeviceStateSample& out) {
   if (datagram.size() > kMaxStateSize) return DatagramError::kOversized;
   if (datagram.size() < kTagSize) return DatagramError::kMalformed;
   out = {};
@@ -558,7 +558,7 @@ DatagramError DatagramCodec::ParseState(std::span<const uint8_t> datagram, Devic
   return DatagramError::kNone;
 }
 
-DatagramError DatagramCodec::ParseCommand(std::span<const uint8_t> datagram, DeviceCommandSample& out) {
+DatagramError ParseCommand(std::span<const uint8_t> datagram, DeviceCommandSample& out) {
   if (datagram.size() > kMaxCommandSize) return DatagramError::kOversized;
   if (datagram.size() < kTagSize) return DatagramError::kMalformed;
   out = {};

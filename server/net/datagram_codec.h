@@ -9,8 +9,8 @@
 // tag included; a bytes field parsed by protobuf would allocate). A command may carry
 // one fragment of a local model (DeviceCommand.model, written as its last field).
 //
-// A codec holds no state: encoding and decoding allocate nothing and are real-time
-// safe. Decoding never throws; a datagram that is too long, does not parse or carries a
+// Encoding and decoding hold no state, allocate nothing and are real-time safe.
+// Decoding never throws; a datagram that is too long, does not parse or carries a
 // bad tag yields an error code for the caller to count.
 //
 // Tagging. Keyed BLAKE2b hashes the key, zero-padded to a 128-byte block, as the first
@@ -123,29 +123,27 @@ enum class DatagramError {
 // "none", "oversized", "malformed", "bad_tag".
 std::string_view DatagramErrorName(DatagramError error);
 
-class DatagramCodec {
- public:
-  // Encode a message and its tag into out; returns the datagram's size, or 0 when it
-  // does not fit in out (or in kMaxStateSize, kMaxCommandSize), or when the command's
-  // model fragment is one ParseCommand would refuse. Real-time safe.
-  std::size_t EncodeState(const DeviceStateSample& state, const TagKey& key, std::span<uint8_t> out);
-  std::size_t EncodeCommand(const DeviceCommandSample& command, const TagKey& key, std::span<uint8_t> out);
-  // The same, preparing the key on each call (one compression more).
-  std::size_t EncodeState(const DeviceStateSample& state, const SessionKey& key, std::span<uint8_t> out) {
-    return EncodeState(state, TagKey(key), out);
-  }
-  std::size_t EncodeCommand(const DeviceCommandSample& command, const SessionKey& key, std::span<uint8_t> out) {
-    return EncodeCommand(command, TagKey(key), out);
-  }
+// Encode a message and its tag into out; returns the datagram's size, or 0 when it does
+// not fit in out (or in kMaxStateSize, kMaxCommandSize), or when the command's model
+// fragment is one ParseCommand would refuse. Real-time safe.
+std::size_t EncodeState(const DeviceStateSample& state, const TagKey& key, std::span<uint8_t> out);
+std::size_t EncodeCommand(const DeviceCommandSample& command, const TagKey& key, std::span<uint8_t> out);
+// The same, preparing the key on each call (one compression more).
+inline std::size_t EncodeState(const DeviceStateSample& state, const SessionKey& key, std::span<uint8_t> out) {
+  return EncodeState(state, TagKey(key), out);
+}
+inline std::size_t EncodeCommand(const DeviceCommandSample& command, const SessionKey& key,
+                                 std::span<uint8_t> out) {
+  return EncodeCommand(command, TagKey(key), out);
+}
 
-  // Parse a datagram's message without checking its tag (the session id in it says
-  // which key to check it with: CheckTag). kNone, kOversized or kMalformed; out is
-  // unspecified unless kNone. A command's model fragment points into datagram. A
-  // fragment of more than kMaxModelFragments, an index not below its count or more than
-  // kModelChunkSize bytes is malformed, and so is a second fragment. Real-time safe.
-  DatagramError ParseState(std::span<const uint8_t> datagram, DeviceStateSample& out);
-  DatagramError ParseCommand(std::span<const uint8_t> datagram, DeviceCommandSample& out);
-};
+// Parse a datagram's message without checking its tag (the session id in it says which
+// key to check it with: CheckTag). kNone, kOversized or kMalformed; out is unspecified
+// unless kNone. A command's model fragment points into datagram. A fragment of more than
+// kMaxModelFragments, an index not below its count or more than kModelChunkSize bytes is
+// malformed, and so is a second fragment. Real-time safe.
+DatagramError ParseState(std::span<const uint8_t> datagram, DeviceStateSample& out);
+DatagramError ParseCommand(std::span<const uint8_t> datagram, DeviceCommandSample& out);
 
 // Whether a datagram's last kTagSize bytes are the tag of the rest under key; constant
 // time in the tag. False for datagrams shorter than a tag. Real-time safe.

@@ -245,7 +245,7 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
     return false;
   }
   DeviceStateSample state;
-  if (codec_.ParseState(datagram, state) != DatagramError::kNone) {
+  if (ParseState(datagram, state) != DatagramError::kNone) {
     counters_.malformed.fetch_add(1, std::memory_order_relaxed);
     return false;
   }
@@ -483,7 +483,7 @@ bool RealtimeChannel::QueueDatagram(const DeviceCommandSample& command, const Ta
                                     const sockaddr_storage& peer, socklen_t peer_size, int reply) {
   Batch& b = *batch_;
   if (reply >= static_cast<int>(b.out_msgs.size()) || peer_size == 0) return false;
-  const std::size_t size = codec_.EncodeCommand(command, key, b.out_data[reply]);
+  const std::size_t size = EncodeCommand(command, key, b.out_data[reply]);
   if (size == 0) return false;
   b.out_iov[reply] = {b.out_data[reply].data(), size};
   b.out_msgs[reply] = {};

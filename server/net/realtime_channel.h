@@ -130,7 +130,6 @@ class RealtimeChannel {
   std::atomic<bool> stop_{false};
   std::thread thread_;
   RealtimeCounters counters_;
-  DatagramCodec codec_;
 
   struct Batch;  // the recvmmsg/sendmmsg buffers
   std::unique_ptr<Batch> batch_;

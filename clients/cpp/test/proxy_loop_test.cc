@@ -121,9 +121,8 @@ TEST(ProxyLoop, RendersTheServersForceAndReportsItHeld) {
   std::atomic<int> wrong_held{0};
   std::atomic<int> states{0};
   Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
-    thread_local net::DatagramCodec codec;
     net::DeviceStateSample state;
-    if (!net::CheckTag(in, TestKey()) || codec.ParseState(in, state) != net::DatagramError::kNone) return 0;
+    if (!net::CheckTag(in, TestKey()) || net::ParseState(in, state) != net::DatagramError::kNone) return 0;
     // the first state holds nothing yet; a late answer may leave a later one at zero too
     const bool held_ok = state.f_held_W == Vector3(0, 0, 3) || state.f_held_W == Vector3::Zero();
     if (!held_ok || state.session_id != kSession || state.sequence != static_cast<uint64_t>(states + 1)) ++wrong_held;
@@ -134,7 +133,7 @@ TEST(ProxyLoop, RendersTheServersForceAndReportsItHeld) {
     command.echo_send_time_ns = state.send_time_ns;
     command.f_W = Vector3(0, 0, 3);
     command.contact = true;
-    return codec.EncodeCommand(command, TestKey(), out);
+    return net::EncodeCommand(command, TestKey(), out);
   });
   HeldDeviceDriver device(HeldCaps());
   RealtimeLink link(kSession, TestKey(), server.endpoint());
@@ -153,14 +152,13 @@ TEST(ProxyLoop, RendersTheServersForceAndReportsItHeld) {
 // server that answers each state three states late, with a force that names the state.
 TEST(ProxyLoop, RendersTheNewestCommandEvenWhenLate) {
   Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
-    thread_local net::DatagramCodec codec;
     net::DeviceStateSample state;
-    if (codec.ParseState(in, state) != net::DatagramError::kNone || state.sequence <= 3) return 0;
+    if (net::ParseState(in, state) != net::DatagramError::kNone || state.sequence <= 3) return 0;
     net::DeviceCommandSample command;
     command.session_id = kSession;
     command.sequence = state.sequence - 3;
     command.f_W = Vector3(0, 0, static_cast<double>(command.sequence) * 1e-3);
-    return codec.EncodeCommand(command, TestKey(), out);
+    return net::EncodeCommand(command, TestKey(), out);
   });
   HeldDeviceDriver device(HeldCaps());
   RealtimeLink link(kSession, TestKey(), server.endpoint());
@@ -190,9 +188,8 @@ TEST(ProxyLoop, ALocalModelDeviceRendersTheModelItWasSent) {
   std::atomic<uint64_t> held_version{0};
   std::atomic<double> avatar_z{-1};
   Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
-    thread_local net::DatagramCodec codec;
     net::DeviceStateSample state;
-    if (codec.ParseState(in, state) != net::DatagramError::kNone) return 0;
+    if (net::ParseState(in, state) != net::DatagramError::kNone) return 0;
     held_version = state.model_version;
     avatar_z = state.avatar_W.z();
     net::DeviceCommandSample command;
@@ -202,7 +199,7 @@ TEST(ProxyLoop, ALocalModelDeviceRendersTheModelItWasSent) {
       const std::span<const uint8_t> bytes(reinterpret_cast<const uint8_t*>(encoded.data()), encoded.size());
       command.model = net::Fragment(bytes, model.version, static_cast<uint32_t>(state.sequence % net::FragmentCount(bytes.size())));
     }
-    return codec.EncodeCommand(command, TestKey(), out);
+    return net::EncodeCommand(command, TestKey(), out);
   });
   HeldDeviceDriver device(HeldCaps());
   RealtimeLink link(kSession, TestKey(), server.endpoint());
@@ -245,15 +242,14 @@ class SinkingDriver final : public DeviceDriver {
 // point is the last reading's.
 TEST(ProxyLoop, ReportsTheWorkTheHeldForceDidAndTheLowestPoint) {
   Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
-    thread_local net::DatagramCodec codec;
     net::DeviceStateSample state;
-    if (!net::CheckTag(in, TestKey()) || codec.ParseState(in, state) != net::DatagramError::kNone) return 0;
+    if (!net::CheckTag(in, TestKey()) || net::ParseState(in, state) != net::DatagramError::kNone) return 0;
     net::DeviceCommandSample command;
     command.session_id = kSession;
     command.sequence = state.sequence;
     command.echo_send_time_ns = state.send_time_ns;
     command.f_W = Vector3(0, 0, 3);
-    return codec.EncodeCommand(command, TestKey(), out);
+    return net::EncodeCommand(command, TestKey(), out);
   });
   SinkingDriver device;
   RealtimeLink link(kSession, TestKey(), server.endpoint());
@@ -281,9 +277,8 @@ TEST(ProxyLoop, UnderTdpaTheForceWaitsForTheServersEnergy) {
   std::atomic<bool> energy_given{false};
   std::atomic<int> energies_reported{0};
   Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
-    thread_local net::DatagramCodec codec;
     net::DeviceStateSample state;
-    if (!net::CheckTag(in, TestKey()) || codec.ParseState(in, state) != net::DatagramError::kNone) return 0;
+    if (!net::CheckTag(in, TestKey()) || net::ParseState(in, state) != net::DatagramError::kNone) return 0;
     energies_reported += state.energy_in == 0 && state.energy_out == 0 ? 1 : 0;  // a held handle does no work
     net::DeviceCommandSample command;
     command.session_id = kSession;
@@ -291,7 +286,7 @@ TEST(ProxyLoop, UnderTdpaTheForceWaitsForTheServersEnergy) {
     command.echo_send_time_ns = state.send_time_ns;
     command.f_W = Vector3(0, 0, 3);
     command.energy_in = energy_given ? 1.0 : 0.0;
-    return codec.EncodeCommand(command, TestKey(), out);
+    return net::EncodeCommand(command, TestKey(), out);
   });
   HeldDeviceDriver device(HeldCaps());
   RealtimeLink link(kSession, TestKey(), server.endpoint());
@@ -355,16 +350,15 @@ class StallingDriver final : public DeviceDriver {
 TEST(ProxyLoop, UnderTdpaAForceHeldAcrossAStallIsTakenBackAfterIt) {
   constexpr double kAllowed = 2e-3;  // J: what the server reports it let in
   Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
-    thread_local net::DatagramCodec codec;
     net::DeviceStateSample state;
-    if (!net::CheckTag(in, TestKey()) || codec.ParseState(in, state) != net::DatagramError::kNone) return 0;
+    if (!net::CheckTag(in, TestKey()) || net::ParseState(in, state) != net::DatagramError::kNone) return 0;
     net::DeviceCommandSample command;
     command.session_id = kSession;
     command.sequence = state.sequence;
     command.echo_send_time_ns = state.send_time_ns;
     command.f_W = Vector3(0, 0, state.sequence <= 50 ? 3 : 0);
     command.energy_in = kAllowed;
-    return codec.EncodeCommand(command, TestKey(), out);
+    return net::EncodeCommand(command, TestKey(), out);
   });
   StallingDriver device(3);
   RealtimeLink link(kSession, TestKey(), server.endpoint());
@@ -388,9 +382,8 @@ TEST(ProxyLoop, UnderTdpaAForceHeldAcrossAStallIsTakenBackAfterIt) {
 TEST(ProxyLoop, TheDeadbandSendsAHandleAtRestOnlyAsKeepalives) {
   std::atomic<uint64_t> keepalives{0}, last_held{0};
   Responder server([&](std::span<const uint8_t> in, std::span<uint8_t> out) -> std::size_t {
-    thread_local net::DatagramCodec codec;
     net::DeviceStateSample state;
-    if (!net::CheckTag(in, TestKey()) || codec.ParseState(in, state) != net::DatagramError::kNone) return 0;
+    if (!net::CheckTag(in, TestKey()) || net::ParseState(in, state) != net::DatagramError::kNone) return 0;
     keepalives += state.keepalive ? 1 : 0;
     last_held = state.states_held;
     net::DeviceCommandSample command;
@@ -399,7 +392,7 @@ TEST(ProxyLoop, TheDeadbandSendsAHandleAtRestOnlyAsKeepalives) {
     command.echo_send_time_ns = state.send_time_ns;
     command.commands_held = 5 * state.sequence;
     command.command_number = state.sequence;
-    return codec.EncodeCommand(command, TestKey(), out);
+    return net::EncodeCommand(command, TestKey(), out);
   });
   HeldDeviceDriver device(HeldCaps());
   RealtimeLink link(kSession, TestKey(), server.endpoint());

@@ -56,7 +56,7 @@ class FakeServer {
     if (n <= 0) return std::nullopt;
     const std::span<const uint8_t> datagram(buffer_.data(), static_cast<std::size_t>(n));
     net::DeviceStateSample state;
-    if (!net::CheckTag(datagram, key) || codec_.ParseState(datagram, state) != net::DatagramError::kNone) {
+    if (!net::CheckTag(datagram, key) || net::ParseState(datagram, state) != net::DatagramError::kNone) {
       return std::nullopt;
     }
     return state;
@@ -76,7 +76,7 @@ class FakeServer {
     command.f_W = Vector3(fx, 0, 0);
     command.contact = true;
     std::array<uint8_t, net::kMaxDatagramSize> out;
-    const std::size_t size = codec_.EncodeCommand(command, key, out);
+    const std::size_t size = net::EncodeCommand(command, key, out);
     SendRaw({out.data(), size});
   }
 
@@ -85,7 +85,6 @@ class FakeServer {
   asio::ip::udp::endpoint endpoint_;
   sockaddr_in peer_{};
   std::array<uint8_t, 2048> buffer_;
-  net::DatagramCodec codec_;
 };
 
 // Waits (up to 1 s) for link to take an answer or count a drop.
@@ -318,8 +317,7 @@ TEST(RealtimeLink, EchoModeTakesTheStateBack) {
   ASSERT_TRUE(link.Send(state));
   ASSERT_TRUE(echo.ReceiveState(key).has_value());
   std::array<uint8_t, net::kMaxDatagramSize> bytes;
-  net::DatagramCodec codec;
-  const std::size_t size = codec.EncodeState(state, key, bytes);
+  const std::size_t size = net::EncodeState(state, key, bytes);
   echo.SendRaw({bytes.data(), size});
   ASSERT_TRUE(AwaitOne(set));
   EXPECT_EQ(link.command().sequence, 1u);
@@ -366,7 +364,7 @@ TEST(RealtimeLink, RemembersThatTheServerEndedTheSession) {
     command.sequence = 1;
     command.flags = flags;
     std::array<uint8_t, net::kMaxDatagramSize> out;
-    server.SendRaw({out.data(), net::DatagramCodec().EncodeCommand(command, with, out)});
+    server.SendRaw({out.data(), net::EncodeCommand(command, with, out)});
   };
   send_flagged(TestKey(9), hapticd::v1::COMMAND_FLAGS_SESSION_CLOSED);  // forged
   send_flagged(key, hapticd::v1::COMMAND_FLAGS_NONE);
@@ -380,7 +378,7 @@ TEST(RealtimeLink, RemembersThatTheServerEndedTheSession) {
   command.sequence = 2;
   command.flags = hapticd::v1::COMMAND_FLAGS_SESSION_TIMED_OUT;
   std::array<uint8_t, net::kMaxDatagramSize> out;
-  server.SendRaw({out.data(), net::DatagramCodec().EncodeCommand(command, key, out)});
+  server.SendRaw({out.data(), net::EncodeCommand(command, key, out)});
   while (!link.Drain()) ASSERT_LT(std::chrono::steady_clock::now(), deadline);
   EXPECT_EQ(link.ended_flags(), static_cast<uint32_t>(hapticd::v1::COMMAND_FLAGS_SESSION_TIMED_OUT));
 }

@@ -42,17 +42,16 @@ DeviceStateSample MakeState() {
 }
 
 TEST(DatagramCodec, StateRoundTripsExactly) {
-  DatagramCodec codec;
   const SessionKey key = TestKey(1);
   const DeviceStateSample state = MakeState();
   std::array<uint8_t, kMaxDatagramSize> buffer;
-  const std::size_t size = codec.EncodeState(state, key, buffer);
+  const std::size_t size = EncodeState(state, key, buffer);
   ASSERT_GT(size, kTagSize);
   const std::span<const uint8_t> datagram(buffer.data(), size);
   EXPECT_TRUE(CheckTag(datagram, key));
 
   DeviceStateSample back;
-  ASSERT_EQ(codec.ParseState(datagram, back), DatagramError::kNone);
+  ASSERT_EQ(ParseState(datagram, back), DatagramError::kNone);
   EXPECT_EQ(back.session_id, state.session_id);
   EXPECT_EQ(back.sequence, state.sequence);
   EXPECT_EQ(back.send_time_ns, state.send_time_ns);
@@ -77,7 +76,6 @@ TEST(DatagramCodec, StateRoundTripsExactly) {
 }
 
 TEST(DatagramCodec, CommandRoundTripsAndAbsentMeansZeroOrIdentity) {
-  DatagramCodec codec;
   const SessionKey key = TestKey(9);
   DeviceCommandSample command;
   command.session_id = 7;
@@ -85,10 +83,10 @@ TEST(DatagramCodec, CommandRoundTripsAndAbsentMeansZeroOrIdentity) {
   command.f_W = {0, 0, 2.5};
   command.contact = true;
   std::array<uint8_t, kMaxDatagramSize> buffer;
-  const std::size_t size = codec.EncodeCommand(command, key, buffer);
+  const std::size_t size = EncodeCommand(command, key, buffer);
   DeviceCommandSample back;
   back.tau_W = {9, 9, 9};  // must be overwritten with the absent field's zero
-  ASSERT_EQ(codec.ParseCommand({buffer.data(), size}, back), DatagramError::kNone);
+  ASSERT_EQ(ParseCommand({buffer.data(), size}, back), DatagramError::kNone);
   EXPECT_EQ(back.f_W, command.f_W);
   EXPECT_EQ(back.tau_W, Vector3::Zero());
   EXPECT_TRUE(back.q_command_W.coeffs().isApprox(Quaternion::Identity().coeffs(), 0));
@@ -171,20 +169,19 @@ std::vector<uint8_t> Seal(const std::string& body, const SessionKey& key) {
 }
 
 TEST(DatagramCodec, CommandCarryingAFragmentRoundTrips) {
-  DatagramCodec codec;
   const SessionKey key = TestKey(3);
   std::mt19937_64 random(41);
   const std::vector<uint8_t> data = RandomBytes(kModelChunkSize, random);
   DeviceCommandSample command = MakeCommand();
   command.model = {.version = 0x0123456789abcdefull, .index = 94, .count = 96, .data = data};
   std::array<uint8_t, kMaxCommandSize> buffer;
-  const std::size_t size = codec.EncodeCommand(command, key, buffer);
+  const std::size_t size = EncodeCommand(command, key, buffer);
   ASSERT_GT(size, kMaxStateSize);
   const std::span<const uint8_t> datagram(buffer.data(), size);
   EXPECT_TRUE(CheckTag(datagram, key));
 
   DeviceCommandSample back;
-  ASSERT_EQ(codec.ParseCommand(datagram, back), DatagramError::kNone);
+  ASSERT_EQ(ParseCommand(datagram, back), DatagramError::kNone);
   ExpectSameCommandFields(back, command);
   EXPECT_EQ(back.model.version, command.model.version);
   EXPECT_EQ(back.model.index, command.model.index);
@@ -195,8 +192,8 @@ TEST(DatagramCodec, CommandCarryingAFragmentRoundTrips) {
   EXPECT_LE(back.model.data.data() + back.model.data.size(), datagram.data() + datagram.size() - kTagSize);
 
   // a command without one, parsed into the same sample, clears it
-  const std::size_t plain = codec.EncodeCommand(MakeCommand(), key, buffer);
-  ASSERT_EQ(codec.ParseCommand({buffer.data(), plain}, back), DatagramError::kNone);
+  const std::size_t plain = EncodeCommand(MakeCommand(), key, buffer);
+  ASSERT_EQ(ParseCommand({buffer.data(), plain}, back), DatagramError::kNone);
   EXPECT_EQ(back.model.count, 0u);
   EXPECT_TRUE(back.model.data.empty());
 }
@@ -205,7 +202,6 @@ TEST(DatagramCodec, CommandCarryingAFragmentRoundTrips) {
 // same DeviceCommand, zero fields left out, for every combination of absent fields and
 // data lengths across the varint boundaries (127/128 bytes; a body past 127).
 TEST(DatagramCodec, HandEncodedFragmentIsProtobufsOwnSerialization) {
-  DatagramCodec codec;
   const SessionKey key = TestKey(6);
   std::mt19937_64 random(43);
   const std::vector<uint8_t> pool = RandomBytes(kModelChunkSize, random);
@@ -244,7 +240,7 @@ TEST(DatagramCodec, HandEncodedFragmentIsProtobufsOwnSerialization) {
         model->set_count(fragment.count);
         model->set_data(AsString(fragment.data));
       }
-      const std::size_t size = codec.EncodeCommand(command, key, buffer);
+      const std::size_t size = EncodeCommand(command, key, buffer);
       ASSERT_GT(size, 0u);
       const std::string body = AsString(std::span<const uint8_t>(buffer).first(size - kTagSize));
       ASSERT_EQ(body, message.SerializeAsString());
@@ -298,7 +294,6 @@ struct RandomValues {
 };
 
 TEST(DatagramCodec, HandWrittenMessagesAreProtobufsOwnSerialization) {
-  DatagramCodec codec;
   const SessionKey key = TestKey(8);
   RandomValues r{std::mt19937_64(44)};
   std::array<uint8_t, kMaxDatagramSize> buffer;
@@ -340,7 +335,7 @@ TEST(DatagramCodec, HandWrittenMessagesAreProtobufsOwnSerialization) {
     state_message.set_energy_out(state.energy_out);
     state_message.set_states_held(state.states_held);
     state_message.set_keepalive(state.keepalive);
-    std::size_t size = codec.EncodeState(state, key, buffer);
+    std::size_t size = EncodeState(state, key, buffer);
     ASSERT_GT(size, 0u);
     EXPECT_EQ(AsString(std::span<const uint8_t>(buffer).first(size - kTagSize)), state_message.SerializeAsString());
     EXPECT_TRUE(CheckTag({buffer.data(), size}, key));
@@ -377,7 +372,7 @@ TEST(DatagramCodec, HandWrittenMessagesAreProtobufsOwnSerialization) {
     command_message.set_energy_out(command.energy_out);
     command_message.set_commands_held(command.commands_held);
     command_message.set_command_number(command.command_number);
-    size = codec.EncodeCommand(command, key, buffer);
+    size = EncodeCommand(command, key, buffer);
     ASSERT_GT(size, 0u);
     EXPECT_EQ(AsString(std::span<const uint8_t>(buffer).first(size - kTagSize)), command_message.SerializeAsString());
     EXPECT_TRUE(CheckTag({buffer.data(), size}, key));
@@ -406,19 +401,18 @@ TEST(DatagramCodec, TheHandWrittenEncoderCoversEveryField) {
 // The largest command there is (every field set, a whole chunk of a model) fits under
 // kMaxCommandSize with room to spare (a tunnel's headers), and needs its whole buffer.
 TEST(DatagramCodec, TheLargestCommandFitsUnderItsLimit) {
-  DatagramCodec codec;
   const SessionKey key = TestKey(8);
   const std::vector<uint8_t> data(kModelChunkSize, 0x5a);
   DeviceCommandSample command = MakeCommand();
   command.flags = 0xffffffffu;
   command.model = {0xffffffffffffffffull, kMaxModelFragments - 1, kMaxModelFragments, data};
   std::array<uint8_t, kMaxCommandSize + 8> buffer;
-  const std::size_t size = codec.EncodeCommand(command, key, buffer);
+  const std::size_t size = EncodeCommand(command, key, buffer);
   EXPECT_GT(size, kModelChunkSize);
   EXPECT_LE(size, kMaxCommandSize);
-  EXPECT_EQ(codec.EncodeCommand(command, key, std::span<uint8_t>(buffer).first(size - 1)), 0u);
+  EXPECT_EQ(EncodeCommand(command, key, std::span<uint8_t>(buffer).first(size - 1)), 0u);
   DeviceCommandSample parsed;
-  ASSERT_EQ(codec.ParseCommand(std::span<const uint8_t>(buffer).first(size), parsed), DatagramError::kNone);
+  ASSERT_EQ(ParseCommand(std::span<const uint8_t>(buffer).first(size), parsed), DatagramError::kNone);
   EXPECT_EQ(parsed.model.data.size(), kModelChunkSize);
 }
 
@@ -433,7 +427,6 @@ std::string Padded(const std::string& body, std::size_t datagram_size) {
 }
 
 TEST(DatagramCodec, StatesAndCommandsHaveTheirOwnLimits) {
-  DatagramCodec codec;
   const SessionKey key = TestKey(2);
   std::mt19937_64 random(47);
   const std::vector<uint8_t> data = RandomBytes(kModelChunkSize, random);
@@ -447,24 +440,24 @@ TEST(DatagramCodec, StatesAndCommandsHaveTheirOwnLimits) {
   DeviceCommandSample command;
   const std::vector<uint8_t> longest = Seal(Padded(message.SerializeAsString(), kMaxCommandSize), key);
   ASSERT_EQ(longest.size(), kMaxCommandSize);
-  ASSERT_EQ(codec.ParseCommand(longest, command), DatagramError::kNone);
+  ASSERT_EQ(ParseCommand(longest, command), DatagramError::kNone);
   ExpectSameCommandFields(command, MakeCommand());
   EXPECT_EQ(command.model.version, 3u);
   EXPECT_EQ(command.model.count, 1u);
   EXPECT_TRUE(std::ranges::equal(command.model.data, data));
   const std::vector<uint8_t> too_long = Seal(Padded(message.SerializeAsString(), kMaxCommandSize + 1), key);
-  EXPECT_EQ(codec.ParseCommand(too_long, command), DatagramError::kOversized);
+  EXPECT_EQ(ParseCommand(too_long, command), DatagramError::kOversized);
 
   // a state of 512 bytes parses; 513 is oversized, though a command could be that long
   v1::DeviceState state;
   state.set_session_id(4);
   DeviceStateSample state_back;
-  EXPECT_EQ(codec.ParseState(Seal(Padded(state.SerializeAsString(), kMaxStateSize), key), state_back),
+  EXPECT_EQ(ParseState(Seal(Padded(state.SerializeAsString(), kMaxStateSize), key), state_back),
             DatagramError::kNone);
   EXPECT_EQ(state_back.session_id, 4u);
   const std::vector<uint8_t> long_state = Seal(Padded(state.SerializeAsString(), kMaxStateSize + 1), key);
-  EXPECT_EQ(codec.ParseState(long_state, state_back), DatagramError::kOversized);
-  EXPECT_EQ(codec.ParseCommand(long_state, command), DatagramError::kNone);
+  EXPECT_EQ(ParseState(long_state, state_back), DatagramError::kOversized);
+  EXPECT_EQ(ParseCommand(long_state, command), DatagramError::kNone);
 }
 
 // A command with the fragment's bytes as given, after MakeCommand's other fields.
@@ -478,7 +471,6 @@ std::string FragmentField(const std::string& body) {
 }
 
 TEST(DatagramCodec, MalformedFragmentsAreRefused) {
-  DatagramCodec codec;
   DeviceCommandSample command;
   // Within the bounds, and each bound broken by one. Built by protobuf, which takes
   // whatever values it is given.
@@ -488,7 +480,7 @@ TEST(DatagramCodec, MalformedFragmentsAreRefused) {
     message.mutable_model()->set_index(index);
     message.mutable_model()->set_count(count);
     message.mutable_model()->set_data(std::string(length, 'd'));
-    return codec.ParseCommand(Seal(message.SerializeAsString(), TestKey(1)), command);
+    return ParseCommand(Seal(message.SerializeAsString(), TestKey(1)), command);
   };
   EXPECT_EQ(parse(1, 95, kMaxModelFragments, kModelChunkSize), DatagramError::kNone);
   EXPECT_EQ(command.model.index, 95u);
@@ -498,7 +490,7 @@ TEST(DatagramCodec, MalformedFragmentsAreRefused) {
   EXPECT_EQ(parse(1, 0, 1, kModelChunkSize + 1), DatagramError::kMalformed);
   // a fragment present with no count (an empty one included)
   EXPECT_EQ(parse(1, 0, 0, 10), DatagramError::kMalformed);
-  EXPECT_EQ(codec.ParseCommand(CommandWithFragmentBytes(FragmentField("")), command), DatagramError::kMalformed);
+  EXPECT_EQ(ParseCommand(CommandWithFragmentBytes(FragmentField("")), command), DatagramError::kMalformed);
 
   // Built by hand: the fragment's own fields, a count of 1 (1d 01000000) and 3 bytes of
   // data (22 03 ...) around what is tested.
@@ -506,47 +498,46 @@ TEST(DatagramCodec, MalformedFragmentsAreRefused) {
   const std::string data = {'\x22', 3, 'a', 'b', 'c'};
   // the parsed fragment's data points into its datagram: kept alive while it is read
   const std::vector<uint8_t> plain = CommandWithFragmentBytes(FragmentField(count + data));
-  EXPECT_EQ(codec.ParseCommand(plain, command), DatagramError::kNone);
+  EXPECT_EQ(ParseCommand(plain, command), DatagramError::kNone);
   EXPECT_EQ(AsString(command.model.data), "abc");
   // a field the fragment does not know is skipped
   const std::vector<uint8_t> unknown = CommandWithFragmentBytes(FragmentField(count + std::string{'\x28', 5} + data));
-  EXPECT_EQ(codec.ParseCommand(unknown, command), DatagramError::kNone);
+  EXPECT_EQ(ParseCommand(unknown, command), DatagramError::kNone);
   EXPECT_EQ(AsString(command.model.data), "abc");
   // the fragment's field claims more bytes than the message has
   std::string cut = FragmentField(count + data);
   cut[1] = static_cast<char>(cut.size());
-  EXPECT_EQ(codec.ParseCommand(CommandWithFragmentBytes(cut), command), DatagramError::kMalformed);
+  EXPECT_EQ(ParseCommand(CommandWithFragmentBytes(cut), command), DatagramError::kMalformed);
   // the data claims more than the fragment has
-  EXPECT_EQ(codec.ParseCommand(CommandWithFragmentBytes(FragmentField(count + std::string{'\x22', 4, 'a', 'b', 'c'})),
+  EXPECT_EQ(ParseCommand(CommandWithFragmentBytes(FragmentField(count + std::string{'\x22', 4, 'a', 'b', 'c'})),
                                command),
             DatagramError::kMalformed);
   // a fixed64 version cut short at the fragment's end
-  EXPECT_EQ(codec.ParseCommand(CommandWithFragmentBytes(FragmentField(count + data + std::string{'\x09', 1, 2, 3})),
+  EXPECT_EQ(ParseCommand(CommandWithFragmentBytes(FragmentField(count + data + std::string{'\x09', 1, 2, 3})),
                                command),
             DatagramError::kMalformed);
   // a varint that never ends
-  EXPECT_EQ(codec.ParseCommand(CommandWithFragmentBytes(FragmentField(count + data + std::string{'\x28', '\xff'})),
+  EXPECT_EQ(ParseCommand(CommandWithFragmentBytes(FragmentField(count + data + std::string{'\x28', '\xff'})),
                                command),
             DatagramError::kMalformed);
   // a wire type protobuf does not have (6)
-  EXPECT_EQ(codec.ParseCommand(CommandWithFragmentBytes(FragmentField(count + data + std::string{'\x2e', 0})),
+  EXPECT_EQ(ParseCommand(CommandWithFragmentBytes(FragmentField(count + data + std::string{'\x2e', 0})),
                                command),
             DatagramError::kMalformed);
   // two fragments in one command
-  EXPECT_EQ(codec.ParseCommand(CommandWithFragmentBytes(FragmentField(count + data) + FragmentField(count + data)),
+  EXPECT_EQ(ParseCommand(CommandWithFragmentBytes(FragmentField(count + data) + FragmentField(count + data)),
                                command),
             DatagramError::kMalformed);
 }
 
 // What the parser refuses the encoder does not write.
 TEST(DatagramCodec, EncodeRefusesAFragmentTheParserWould) {
-  DatagramCodec codec;
   std::array<uint8_t, kMaxCommandSize> out;
   const std::vector<uint8_t> data(kModelChunkSize + 1, 7);
   const auto encode = [&](uint32_t index, uint32_t count, std::size_t length) {
     DeviceCommandSample command;
     command.model = {1, index, count, std::span<const uint8_t>(data.data(), length)};
-    return codec.EncodeCommand(command, TestKey(1), out);
+    return EncodeCommand(command, TestKey(1), out);
   };
   EXPECT_GT(encode(0, 1, kModelChunkSize), 0u);
   EXPECT_EQ(encode(0, 1, kModelChunkSize + 1), 0u);
@@ -557,7 +548,6 @@ TEST(DatagramCodec, EncodeRefusesAFragmentTheParserWould) {
 // Protobuf may put fields in any order: a fragment ahead of the others is taken out of
 // the middle, and the rest parses.
 TEST(DatagramCodec, AFragmentMayComeFirst) {
-  DatagramCodec codec;
   v1::DeviceCommand fragment_only;
   fragment_only.mutable_model()->set_version(2);
   fragment_only.mutable_model()->set_index(1);
@@ -566,7 +556,7 @@ TEST(DatagramCodec, AFragmentMayComeFirst) {
   DeviceCommandSample command;
   const std::vector<uint8_t> datagram =
       Seal(fragment_only.SerializeAsString() + MakeCommandMessage().SerializeAsString(), TestKey(1));
-  ASSERT_EQ(codec.ParseCommand(datagram, command), DatagramError::kNone);
+  ASSERT_EQ(ParseCommand(datagram, command), DatagramError::kNone);
   ExpectSameCommandFields(command, MakeCommand());
   EXPECT_EQ(command.model.version, 2u);
   EXPECT_EQ(command.model.index, 1u);
@@ -575,10 +565,9 @@ TEST(DatagramCodec, AFragmentMayComeFirst) {
 }
 
 TEST(DatagramCodec, TagDependsOnKeyAndEveryByte) {
-  DatagramCodec codec;
   const SessionKey key = TestKey(1);
   std::array<uint8_t, kMaxDatagramSize> buffer;
-  const std::size_t size = codec.EncodeState(MakeState(), key, buffer);
+  const std::size_t size = EncodeState(MakeState(), key, buffer);
   EXPECT_FALSE(CheckTag({buffer.data(), size}, TestKey(2)));
   for (std::size_t i = 0; i < size; ++i) {
     buffer[i] ^= 0x01;
@@ -611,14 +600,13 @@ TEST(DatagramCodec, TagIsLibsodiumKeyedBlake2b) {
 
 // A prepared key and a plain one are the same key to every call.
 TEST(DatagramCodec, TagKeyAndSessionKeyAgree) {
-  DatagramCodec codec;
   const SessionKey key = TestKey(4);
   const TagKey tag_key(key);
   EXPECT_EQ(tag_key.key(), key);
   std::array<uint8_t, kMaxDatagramSize> a;
   std::array<uint8_t, kMaxDatagramSize> b;
-  const std::size_t size = codec.EncodeState(MakeState(), key, a);
-  ASSERT_EQ(codec.EncodeState(MakeState(), tag_key, b), size);
+  const std::size_t size = EncodeState(MakeState(), key, a);
+  ASSERT_EQ(EncodeState(MakeState(), tag_key, b), size);
   EXPECT_TRUE(std::equal(a.begin(), a.begin() + size, b.begin()));
   EXPECT_TRUE(CheckTag({a.data(), size}, tag_key));
   EXPECT_FALSE(CheckTag({a.data(), size}, TagKey(TestKey(5))));
@@ -742,7 +730,6 @@ std::vector<uint8_t> WithTagRoom(const std::string& body) {
 }
 
 TEST(DatagramCodec, ReadsStatesAsProtobufsParserDoes) {
-  DatagramCodec codec;
   WireSoup soup(71);
   const auto types = [](uint32_t n) {
     if (n == 1 || n == 8 || n == 11) return 5;
@@ -760,7 +747,7 @@ TEST(DatagramCodec, ReadsStatesAsProtobufsParserDoes) {
     const bool parses = expected.ParseFromString(body);
     DeviceStateSample state;
     state.session_id = 99;  // whatever was there before does not show through
-    const DatagramError error = codec.ParseState(WithTagRoom(body), state);
+    const DatagramError error = ParseState(WithTagRoom(body), state);
     ASSERT_EQ(error == DatagramError::kNone, parses) << DatagramErrorName(error);
     if (!parses) continue;
     ++accepted;
@@ -788,7 +775,6 @@ TEST(DatagramCodec, ReadsStatesAsProtobufsParserDoes) {
 }
 
 TEST(DatagramCodec, ReadsCommandsAsProtobufsParserDoes) {
-  DatagramCodec codec;
   WireSoup soup(72);
   const auto types = [](uint32_t n) {
     if (n == 1 || n == 11) return 5;
@@ -805,7 +791,7 @@ TEST(DatagramCodec, ReadsCommandsAsProtobufsParserDoes) {
     const bool parses = expected.ParseFromString(body);
     DeviceCommandSample command;
     command.flags = 99;
-    const DatagramError error = codec.ParseCommand(WithTagRoom(body), command);
+    const DatagramError error = ParseCommand(WithTagRoom(body), command);
     if (parses && expected.has_model()) continue;  // one fragment, within bounds: the codec's own rule
     ASSERT_EQ(error == DatagramError::kNone, parses) << DatagramErrorName(error);
     if (!parses) continue;
@@ -832,19 +818,18 @@ TEST(DatagramCodec, ReadsCommandsAsProtobufsParserDoes) {
 }
 
 TEST(DatagramCodec, RefusesOversizedShortAndGarbage) {
-  DatagramCodec codec;
   DeviceStateSample state;
   DeviceCommandSample command;
   std::vector<uint8_t> big(kMaxCommandSize + 1, 0);
-  EXPECT_EQ(codec.ParseState(big, state), DatagramError::kOversized);
-  EXPECT_EQ(codec.ParseCommand(big, command), DatagramError::kOversized);
-  EXPECT_EQ(codec.ParseState(std::span<const uint8_t>(big.data(), 3), state), DatagramError::kMalformed);
-  EXPECT_EQ(codec.ParseCommand(std::span<const uint8_t>(big.data(), 3), command), DatagramError::kMalformed);
+  EXPECT_EQ(ParseState(big, state), DatagramError::kOversized);
+  EXPECT_EQ(ParseCommand(big, command), DatagramError::kOversized);
+  EXPECT_EQ(ParseState(std::span<const uint8_t>(big.data(), 3), state), DatagramError::kMalformed);
+  EXPECT_EQ(ParseCommand(std::span<const uint8_t>(big.data(), 3), command), DatagramError::kMalformed);
   // A length-delimited field claiming more bytes than there are.
   std::vector<uint8_t> truncated = {0x22, 0x7f, 0x09};
   truncated.resize(truncated.size() + kTagSize, 0);
-  EXPECT_EQ(codec.ParseState(truncated, state), DatagramError::kMalformed);
-  EXPECT_EQ(codec.ParseCommand(truncated, command), DatagramError::kMalformed);
+  EXPECT_EQ(ParseState(truncated, state), DatagramError::kMalformed);
+  EXPECT_EQ(ParseCommand(truncated, command), DatagramError::kMalformed);
   // Random bytes never crash, up to each kind's limit; whatever parses still fails the tag.
   std::mt19937_64 random(3);
   const SessionKey key = TestKey(1);
@@ -853,20 +838,18 @@ TEST(DatagramCodec, RefusesOversizedShortAndGarbage) {
     std::vector<uint8_t> noise(
         std::uniform_int_distribution<std::size_t>(0, is_state ? kMaxStateSize : kMaxCommandSize)(random));
     for (auto& byte : noise) byte = static_cast<uint8_t>(random());
-    const DatagramError error = is_state ? codec.ParseState(noise, state) : codec.ParseCommand(noise, command);
+    const DatagramError error = is_state ? ParseState(noise, state) : ParseCommand(noise, command);
     EXPECT_TRUE(error == DatagramError::kNone || error == DatagramError::kMalformed);
     EXPECT_FALSE(CheckTag(noise, key));
   }
 }
 
 TEST(DatagramCodec, EncodeRefusesABufferTooSmall) {
-  DatagramCodec codec;
   std::array<uint8_t, 20> small;
-  EXPECT_EQ(codec.EncodeState(MakeState(), TestKey(1), small), 0u);
+  EXPECT_EQ(EncodeState(MakeState(), TestKey(1), small), 0u);
 }
 
-TEST(DatagramCodec, AllocatesNothingAfterConstruction) {
-  DatagramCodec codec;
+TEST(DatagramCodec, EncodingAndDecodingAllocateNothing) {
   const SessionKey key = TestKey(1);
   std::array<uint8_t, kMaxDatagramSize> buffer;
   DeviceStateSample state;
@@ -880,14 +863,14 @@ TEST(DatagramCodec, AllocatesNothingAfterConstruction) {
   const long before = hapticd::testing::AllocationCount();
   const TagKey tag_key(key);
   for (int i = 0; i < 1000; ++i) {
-    const std::size_t size = codec.EncodeState(MakeState(), key, buffer);
-    ASSERT_EQ(codec.ParseState({buffer.data(), size}, state), DatagramError::kNone);
+    const std::size_t size = EncodeState(MakeState(), key, buffer);
+    ASSERT_EQ(ParseState({buffer.data(), size}, state), DatagramError::kNone);
     ASSERT_TRUE(CheckTag({buffer.data(), size}, key));
     ASSERT_TRUE(CheckTag({buffer.data(), size}, tag_key));
-    const std::size_t command_size = codec.EncodeCommand(command, tag_key, buffer);
-    ASSERT_EQ(codec.ParseCommand({buffer.data(), command_size}, command), DatagramError::kNone);
-    const std::size_t fragment_size = codec.EncodeCommand(with_fragment, tag_key, buffer);
-    ASSERT_EQ(codec.ParseCommand({buffer.data(), fragment_size}, parsed), DatagramError::kNone);
+    const std::size_t command_size = EncodeCommand(command, tag_key, buffer);
+    ASSERT_EQ(ParseCommand({buffer.data(), command_size}, command), DatagramError::kNone);
+    const std::size_t fragment_size = EncodeCommand(with_fragment, tag_key, buffer);
+    ASSERT_EQ(ParseCommand({buffer.data(), fragment_size}, parsed), DatagramError::kNone);
     ASSERT_EQ(parsed.model.data.size(), kModelChunkSize);
   }
   EXPECT_EQ(hapticd::testing::AllocationCount() - before, 0);

@@ -60,14 +60,14 @@ class ModelFeedTest : public ::testing::Test {
     state.avatar_W = avatar_W_;
     state.model_version = model_version;
     std::array<uint8_t, kMaxStateSize> buffer;
-    device.SendRaw({buffer.data(), codec_.EncodeState(state, session.key, buffer)});
+    device.SendRaw({buffer.data(), EncodeState(state, session.key, buffer)});
     for (;;) {
       const auto bytes = device.Receive(kDeadlineMs);
       if (!bytes) return std::nullopt;
       EXPECT_LE(bytes->size(), kMaxCommandSize);
       EXPECT_TRUE(CheckTag(*bytes, session.key));
       DeviceCommandSample command;
-      EXPECT_EQ(codec_.ParseCommand(*bytes, command), DatagramError::kNone);
+      EXPECT_EQ(ParseCommand(*bytes, command), DatagramError::kNone);
       if (command.sequence != state.sequence) continue;  // a watchdog command
       fragment_bytes_.assign(command.model.data.begin(), command.model.data.end());
       ModelFragmentView fragment = command.model;
@@ -88,7 +88,6 @@ class ModelFeedTest : public ::testing::Test {
 
   Harness harness_;
   ModelFeed feed_{harness_.sessions, harness_.publisher};
-  DatagramCodec codec_;
   ModelAssembler assembler_;
   std::vector<uint8_t> fragment_bytes_;
   uint64_t sequence_ = 0;

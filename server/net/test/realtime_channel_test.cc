@@ -84,14 +84,14 @@ class RealtimeChannelTest : public ::testing::Test {
                                               int timeout_ms = kDeadlineMs) {
     state.session_id = session.id;
     std::array<uint8_t, kMaxDatagramSize> buffer;
-    const std::size_t size = codec_.EncodeState(state, session.key, buffer);
+    const std::size_t size = EncodeState(state, session.key, buffer);
     device.SendRaw({buffer.data(), size});
     // The answer, past any watchdog command sent while the device was quiet.
     for (;;) {
       const auto bytes = device.Receive(timeout_ms);
       if (!bytes) return std::nullopt;
       DeviceCommandSample command;
-      EXPECT_EQ(codec_.ParseCommand(*bytes, command), DatagramError::kNone);
+      EXPECT_EQ(ParseCommand(*bytes, command), DatagramError::kNone);
       if (command.flags & v1::COMMAND_FLAGS_WATCHDOG) continue;
       EXPECT_TRUE(CheckTag(*bytes, session.key));
       return command;
@@ -104,7 +104,7 @@ class RealtimeChannelTest : public ::testing::Test {
     if (!bytes) return std::nullopt;
     EXPECT_TRUE(CheckTag(*bytes, session.key));
     DeviceCommandSample command;
-    EXPECT_EQ(codec_.ParseCommand(*bytes, command), DatagramError::kNone);
+    EXPECT_EQ(ParseCommand(*bytes, command), DatagramError::kNone);
     return command;
   }
 
@@ -117,7 +117,6 @@ class RealtimeChannelTest : public ::testing::Test {
   }
 
   Harness harness_;
-  DatagramCodec codec_;
 };
 
 TEST_F(RealtimeChannelTest, PressingIntoTheBoxFeelsStiffnessTimesDepth) {
@@ -388,7 +387,7 @@ TEST_F(RealtimeChannelTest, TheRealtimePathAllocatesNothing) {
     state.keepalive = sequence % 10 == 0;
     for (const OpenedSession* s : {&session, &second, &channel}) {
       state.session_id = s->id;
-      const std::size_t size = codec_.EncodeState(state, s->key, out);
+      const std::size_t size = EncodeState(state, s->key, out);
       device.SendRaw({out.data(), size});
       // A forged copy and a replay ride along, to be dropped.
       std::copy(out.begin(), out.begin() + size, forged.begin());
@@ -481,7 +480,7 @@ TEST_F(RealtimeChannelTest, TheDeadbandHoldsBackWhatAPersonCouldNotTell) {
   for (int i = 0; i < 100; ++i) {
     DeviceStateSample state = StateAt(++sequence, {0, 0, 0.045 - 1e-6 * (i % 5)});
     state.session_id = session.id;
-    device.SendRaw({buffer.data(), codec_.EncodeState(state, session.key, buffer)});
+    device.SendRaw({buffer.data(), EncodeState(state, session.key, buffer)});
   }
   const auto telemetry = [&] { return harness_.sessions.slot(harness_.sessions.FindById(session.id)).published.Read(); };
   EXPECT_TRUE(WaitUntil([&] { return telemetry().states_received == sequence; }));

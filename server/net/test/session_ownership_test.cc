@@ -159,7 +159,6 @@ TEST(SessionOwnership, AnEndedSessionsStatesAreAnsweredAsEnded) {
   SessionKey key{};
   std::copy(opened.session_key().begin(), opened.session_key().end(), key.begin());
   DeviceSocket device(harness.realtime.local_endpoint().port());
-  DatagramCodec codec;
   auto exchange = [&](uint64_t sequence) -> std::optional<DeviceCommandSample> {
     DeviceStateSample state;
     state.session_id = opened.session_id();
@@ -167,12 +166,12 @@ TEST(SessionOwnership, AnEndedSessionsStatesAreAnsweredAsEnded) {
     state.send_time_ns = 1'000'000 * sequence;
     state.p_WD = {0, 0, 0.2};
     std::array<uint8_t, kMaxDatagramSize> buffer;
-    device.SendRaw({buffer.data(), codec.EncodeState(state, key, buffer)});
+    device.SendRaw({buffer.data(), EncodeState(state, key, buffer)});
     const auto bytes = device.Receive(500);
     if (!bytes) return std::nullopt;
     EXPECT_TRUE(CheckTag(*bytes, key));
     DeviceCommandSample command;
-    EXPECT_EQ(codec.ParseCommand(*bytes, command), DatagramError::kNone);
+    EXPECT_EQ(ParseCommand(*bytes, command), DatagramError::kNone);
     return command;
   };
   const auto live = exchange(1);
@@ -197,7 +196,7 @@ TEST(SessionOwnership, AnEndedSessionsStatesAreAnsweredAsEnded) {
   forged.sequence = 4;
   std::array<uint8_t, kMaxDatagramSize> buffer;
   SessionKey wrong{};
-  device.SendRaw({buffer.data(), codec.EncodeState(forged, wrong, buffer)});
+  device.SendRaw({buffer.data(), EncodeState(forged, wrong, buffer)});
   EXPECT_FALSE(device.Receive(200));
   EXPECT_EQ(harness.realtime.counters().unknown_session.load(), 3u);
 }
