@@ -124,6 +124,8 @@ void CheckError(DatagramError error, std::size_t size, std::size_t limit) {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
   using namespace hapticd::fuzz;
   using namespace hapticd::net;
+  static const bool sodium_ready = sodium_init() >= 0;  // before ExpectedTagMatch's libsodium
+  FUZZ_CHECK(sodium_ready, "libsodium did not start");
   static const SessionKey golden_key = GoldenKey();
   const std::span<const uint8_t> datagram(data, size);
 

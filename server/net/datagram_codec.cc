@@ -114,10 +114,9 @@ std::array<uint64_t, 8> InitialState() {
   return h;
 }
 
-
-// ---- protobuf's wire format, for DeviceCommand.model (field 12) ----
+// ---- protobuf's wire format: its wire types, and DeviceCommand.model (field 12) written ----
 constexpr uint32_t kModelField = 12;
-constexpr int kVarint = 0, kFixed64 = 1, kLengthDelimited = 2, kFixed32 = 5;
+constexpr int kVarint = 0, kFixed64 = 1, kLengthDelimited = 2, kStartGroup = 3, kEndGroup = 4, kFixed32 = 5;
 
 std::size_t VarintSize(uint64_t v) {
   std::size_t n = 1;
@@ -172,10 +171,10 @@ uint8_t* PutFragmentField(const ModelFragmentView& f, uint8_t* p) {
 // fuzz_datagram compare the two on random and mutated messages): fields in any order, a
 // scalar's last value wins, a sub-message given again merges into the first; a field
 // not in the message, or in it with another wire type, is unknown and skipped, groups
-// included. Refused: a value cut short, a tag of field 0 or of more than 5 bytes, a length of more than 5 bytes or past the message's end, an end-group tag without
-// its group, wire types 6 and 7, and sub-messages and groups nested more than
-// kMaxNesting deep (protobuf's default recursion limit).
-constexpr int kStartGroup = 3, kEndGroup = 4;
+// included. Refused: a value cut short, a tag of field 0 or of more than 5 bytes, a
+// length of more than 5 bytes or past the message's end, an end-group tag without its
+// group, wire types 6 and 7, and sub-messages and groups nested more than kMaxNesting
+// deep (protobuf's default recursion limit).
 constexpr int kMaxNesting = 100;
 
 struct WireReader {
@@ -190,7 +189,7 @@ struct WireReader {
     uint64_t v = 0;
     for (int i = 0; i < max_bytes && at < in.size(); ++i) {
       const uint8_t byte = in[at++];
-      if (i < 10) v |= uint64_t{byte & 0x7fu} << (7 * i);
+      v |= uint64_t{byte & 0x7fu} << (7 * i);
       if (!(byte & 0x80)) return v;
     }
     failed = true;
@@ -481,9 +480,7 @@ std::string_view DatagramErrorName(DatagramError error) {
   return "unknown";
 }
 
-
-std::size_t EncodeState(const DeviceStateSample& state, const TagKey& key,
-                                       std::span<uint8_t> out) {
+std::size_t EncodeState(const DeviceStateSample& state, const TagKey& key, std::span<uint8_t> out) {
   std::array<uint8_t, kMaxMessageBytes> message;
   MessageWriter writer(message.data());
   WriteState(state, writer);
@@ -491,8 +488,7 @@ std::size_t EncodeState(const DeviceStateSample& state, const TagKey& key,
   return SealInto(std::span(message).first(size), nullptr, key, out, kMaxStateSize);
 }
 
-std::size_t EncodeCommand(const DeviceCommandSample& command, const TagKey& key,
-                                         std::span<uint8_t> out) {
+std::size_t EncodeCommand(const DeviceCommandSample& command, const TagKey& key, std::span<uint8_t> out) {
   // a fragment the parser would refuse is not sent either
   const ModelFragmentView& model = command.model;
   if (model.count != 0 && !(model.count <= kMaxModelFragments && model.index < model.count &&
@@ -592,7 +588,7 @@ DatagramError ParseCommand(std::span<const uint8_t> datagram, DeviceCommandSampl
         case 7: ReadVector(r, 0, out.p_command_W); return true;
         case 8: ReadRotation(r, 0, orientation, has_orientation); return true;
         case 9: ReadVector(r, 0, out.avatar_W); return true;
-        case 12: {
+        case kModelField: {
           // one fragment at most, within its bounds (protobuf would merge a second)
           const std::span<const uint8_t> fragment = r.Bytes();
           if (r.failed || has_model || !ReadFragment(fragment, 1, out.model)) r.failed = true;
