@@ -5,6 +5,7 @@
 #include <cmath>
 #include <exception>
 #include <limits>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <system_error>
@@ -452,6 +453,79 @@ class Builder {
   const BvhBuildOptions& options_;
 };
 
+// The primitives under each node, [begin, end) in leaf order: a subtree is one range,
+// since the builder partitions its range in place, depth first.
+struct PrimitiveRange {
+  int begin = 0;
+  int end = 0;
+};
+
+PrimitiveRange ChildRange(const std::vector<BvhNode>& nodes, const std::vector<PrimitiveRange>& ranges,
+                          int node, int c) {
+  const BvhNode& n = nodes[node];
+  if (!n.is_leaf(c)) return ranges[n.child[c]];
+  return {n.first_primitive(c), n.first_primitive(c) + n.count[c]};
+}
+
+void FillRanges(const std::vector<BvhNode>& nodes, int node, std::vector<PrimitiveRange>& ranges) {
+  PrimitiveRange all{std::numeric_limits<int>::max(), 0};
+  for (int c = 0; c < kBvhWidth; ++c) {
+    if (!nodes[node].is_leaf(c)) FillRanges(nodes, nodes[node].child[c], ranges);
+    const PrimitiveRange range = ChildRange(nodes, ranges, node, c);
+    if (range.begin == range.end) continue;
+    all.begin = std::min(all.begin, range.begin);
+    all.end = std::max(all.end, range.end);
+  }
+  ranges[node] = all.begin < all.end ? all : PrimitiveRange{};
+}
+
+// Disc c of discs about the given triangles (left infinite where there are none or too
+// many, or where float cannot hold it).
+void FitDisc(std::span<const Triangle> triangles, int c, BvhDiscs& discs) {
+  if (triangles.empty() || triangles.size() > kMaxDiscTriangles) return;
+  Vector3 lo = Vector3::Constant(std::numeric_limits<double>::infinity());
+  Vector3 hi = -lo;
+  Vector3 area = Vector3::Zero();
+  for (const Triangle& t : triangles) {
+    lo = lo.cwiseMin(t.v0).cwiseMin(t.v1).cwiseMin(t.v2);
+    hi = hi.cwiseMax(t.v0).cwiseMax(t.v1).cwiseMax(t.v2);
+    area += (t.v1 - t.v0).cross(t.v2 - t.v0);
+  }
+  // any unit normal makes a disc that holds them; their summed normal a thin one
+  const double length = area.norm();
+  const Vector3 unit = length > 0 && std::isfinite(length) ? Vector3(area / length) : Vector3::UnitZ();
+  const Vector3 mid = (lo + hi) / 2;
+  // (rounded by RoundDownToFloat, not a cast: at -O3 GCC 12's SLP vectorizer kept the
+  // doubles of a cast for centre_d below, so the disc missed corners by ulps of float)
+  float centre[3], normal[3];
+  for (int a = 0; a < 3; ++a) {
+    centre[a] = RoundDownToFloat(mid[a]);
+    normal[a] = RoundDownToFloat(unit[a]);
+  }
+  // as stored, so that the disc holds every corner with what the queries read
+  const Vector3 centre_d(centre[0], centre[1], centre[2]);
+  const Vector3 normal_d(normal[0], normal[1], normal[2]);
+  double thickness = 0;
+  double radius_squared = 0;
+  for (const Triangle& t : triangles) {
+    for (const Vector3* corner : {&t.v0, &t.v1, &t.v2}) {
+      const Vector3 offset = *corner - centre_d;
+      const double height = normal_d.dot(offset);
+      thickness = std::max(thickness, std::abs(height));
+      radius_squared = std::max(radius_squared, (offset - height * normal_d).squaredNorm());
+    }
+  }
+  const float radius = RoundUpToFloat(std::sqrt(radius_squared));
+  const float half = RoundUpToFloat(thickness);
+  if (!std::isfinite(centre_d.sum()) || !(radius < kFloatMax) || !(half < kFloatMax)) return;
+  for (int a = 0; a < 3; ++a) {
+    discs.centre[a][c] = centre[a];
+    discs.normal[a][c] = normal[a];
+  }
+  discs.radius[c] = radius;
+  discs.thickness[c] = half;
+}
+
 }  // namespace
 
 MeshBvh::MeshBvh(std::shared_ptr<const TriangleMesh> mesh, const BvhBuildOptions& options)
@@ -514,6 +588,26 @@ MeshBvh::MeshBvh(std::shared_ptr<const TriangleMesh> mesh, const BvhBuildOptions
     for (int i = begin; i < end; ++i) {
       primitive_triangles_[i] = refs[i].index();
       primitives_[i] = mesh_->triangle(refs[i].index());
+    }
+  });
+
+  // the discs about each node's children
+  std::vector<PrimitiveRange> ranges(nodes_.size());
+  FillRanges(nodes_, 0, ranges);
+  discs_.resize(nodes_.size());
+  ParallelFor(static_cast<int>(nodes_.size()), threads, [&](int begin, int end) {
+    for (int node = begin; node < end; ++node) {
+      BvhDiscs& discs = discs_[node];
+      for (int c = 0; c < kBvhWidth; ++c) {
+        for (int a = 0; a < 3; ++a) {
+          discs.centre[a][c] = 0;
+          discs.normal[a][c] = a == 2;
+        }
+        discs.radius[c] = kInf;
+        discs.thickness[c] = kInf;
+        const PrimitiveRange range = ChildRange(nodes_, ranges, node, c);
+        FitDisc(std::span<const Triangle>(primitives_).subspan(range.begin, range.end - range.begin), c, discs);
+      }
     }
   });
 }

@@ -9,6 +9,10 @@
 #include <cstdint>
 #include <cstring>
 
+#if defined(__SSE__)
+#include <xmmintrin.h>
+#endif
+
 #include "server/geometry/bvh.h"
 
 namespace hapticd::geometry::bvh_simd {
@@ -29,6 +33,14 @@ static_assert(kBvhWidth % 4 == 0);
 inline Double2 Splat(double x) { return Double2{x, x}; }
 inline Float4 SplatFloat(float x) { return Float4{x, x, x, x}; }
 
+inline Float4 Sqrt(Float4 x) {
+#if defined(__SSE__)
+  return reinterpret_cast<Float4>(_mm_sqrt_ps(reinterpret_cast<__m128>(x)));
+#else
+  return Float4{std::sqrt(x[0]), std::sqrt(x[1]), std::sqrt(x[2]), std::sqrt(x[3])};
+#endif
+}
+
 // Four neighbouring floats (a bound of four children), as they are.
 inline Float4 LoadFloat4(const float* bounds) {
   Float4 f;
@@ -43,10 +55,11 @@ inline void Load(const float* bounds, Double2& low, Double2& high) {
   high = __builtin_convertvector(Float2(__builtin_shufflevector(f, f, 2, 3)), Double2);
 }
 
-// Starts loading a node (all of its cache lines) before it is needed.
-inline void Prefetch(const BvhNode& node) {
+// Starts loading a node or its discs (all of their cache lines) before they are needed.
+template <typename NodePart>
+inline void Prefetch(const NodePart& node) {
   const char* bytes = reinterpret_cast<const char*>(&node);
-  for (size_t offset = 0; offset < sizeof(BvhNode); offset += 64) {
+  for (size_t offset = 0; offset < sizeof(NodePart); offset += 64) {
     __builtin_prefetch(bytes + offset);
   }
 }
@@ -120,6 +133,84 @@ struct FloatBoxWithin {
     }
     const Mask4 within = sum <= limit_squared;
     return (within[0] & 1) | (within[1] & 2) | (within[2] & 4) | (within[3] & 8);
+  }
+};
+
+// A segment a -> a + d and a distance, for ChildrenWithin a node's discs (BvhDiscs), in
+// float: the gather's second test, after the boxes. Over the segment, the least height
+// over a disc's plane beyond its thickness and the least distance within the plane
+// beyond its radius bound the distance to anything in the disc below (the bound of
+// LowerDistanceExceeds in sphere_sweep.cc, for a triangle: a disc of no thickness).
+// The offsets from the centres are taken in double, so float rounds each quantity by a
+// relative few 1e-7 of the largest magnitude in play (offset, motion, distance, radius,
+// thickness; the normal is unit to 1e-7 too): a child is passed over only where the bound
+// squared exceeds the distance squared by 1e-5 of the sum of those magnitudes squared,
+// far above that rounding. Anything not finite on the way (a disc of infinite radius,
+// an overflow) keeps the child.
+struct FloatDiscsWithin {
+  static constexpr float kSlack = 1e-5f;
+  Double2 a[3];
+  Float4 d[3];
+  float keep_squared;
+  float motion_squared;
+
+  FloatDiscsWithin(const Vector3& start, const Vector3& motion, double keep) {
+    for (int axis = 0; axis < 3; ++axis) {
+      a[axis] = Splat(start[axis]);
+      d[axis] = SplatFloat(static_cast<float>(motion[axis]));
+    }
+    keep_squared = RoundUpToFloat(keep * keep);
+    motion_squared = static_cast<float>(motion.squaredNorm());
+  }
+
+  // Bit c set where child c may hold something within keep of the segment.
+  int ChildrenWithin(const BvhDiscs& discs) const {
+    static_assert(kBvhWidth == 4, "one vector of four children per node");
+    Float4 o[3], n[3];
+    for (int axis = 0; axis < 3; ++axis) {
+      Double2 low, high;
+      Load(discs.centre[axis], low, high);
+      low = a[axis] - low;
+      high = a[axis] - high;
+      o[axis] = __builtin_shufflevector(__builtin_convertvector(low, Float2), __builtin_convertvector(high, Float2),
+                                        0, 1, 2, 3);
+      n[axis] = LoadFloat4(discs.normal[axis]);
+    }
+    const Float4 radius = LoadFloat4(discs.radius);
+    const Float4 thickness = LoadFloat4(discs.thickness);
+    const Float4 zero = SplatFloat(0);
+    // heights over the plane at both ends: the least, 0 where the segment crosses it
+    const Float4 height_a = n[0] * o[0] + n[1] * o[1] + n[2] * o[2];
+    const Float4 climb = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    const Float4 height_b = height_a + climb;
+    const Float4 abs_a = height_a < 0 ? -height_a : height_a;
+    const Float4 abs_b = height_b < 0 ? -height_b : height_b;
+    const Float4 least = height_a * height_b > 0 ? (abs_a < abs_b ? abs_a : abs_b) : zero;
+    Float4 above = least - thickness;
+    above = above > 0 ? above : zero;
+    // within the plane: the point of the segment's shadow nearest the centre
+    Float4 lateral[3], drift[3];
+    for (int axis = 0; axis < 3; ++axis) {
+      lateral[axis] = o[axis] - height_a * n[axis];
+      drift[axis] = d[axis] - climb * n[axis];
+    }
+    const Float4 drift_squared = drift[0] * drift[0] + drift[1] * drift[1] + drift[2] * drift[2];
+    const Float4 toward = -(lateral[0] * drift[0] + lateral[1] * drift[1] + lateral[2] * drift[2]);
+    Float4 t = drift_squared > 0 ? toward / drift_squared : zero;
+    t = t > 0 ? t : zero;
+    t = t < 1 ? t : SplatFloat(1);
+    Float4 nearest_squared = zero;
+    for (int axis = 0; axis < 3; ++axis) {
+      const Float4 p = lateral[axis] + t * drift[axis];
+      nearest_squared += p * p;
+    }
+    Float4 beside = Sqrt(nearest_squared) - radius;
+    beside = beside > 0 ? beside : zero;
+    const Float4 bound_squared = above * above + beside * beside;
+    const Float4 magnitudes = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + motion_squared + keep_squared +
+                              radius * radius + thickness * thickness;
+    const Mask4 far = bound_squared > keep_squared + kSlack * magnitudes;
+    return ~((far[0] & 1) | (far[1] & 2) | (far[2] & 4) | (far[3] & 8)) & 0xf;
   }
 };
 

@@ -586,8 +586,10 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
   const Double2 q_lo[3] = {Splat(segment_box.min.x()), Splat(segment_box.min.y()), Splat(segment_box.min.z())};
   const Double2 q_hi[3] = {Splat(segment_box.max.x()), Splat(segment_box.max.y()), Splat(segment_box.max.z())};
   const FloatBoxWithin float_box(segment_box, keep);
+  const FloatDiscsWithin float_discs(a, d, keep);
   const TriangleMesh& mesh = bvh.mesh();
   const std::vector<BvhNode>& nodes = bvh.nodes();
+  const std::vector<BvhDiscs>& discs = bvh.discs();
   // every child box within the radius of the segment's box is opened (no order: all
   // of them are wanted), tested in float where it can be
   int stack[(kBvhWidth - 1) * kMaxBvhDepth + 1];
@@ -597,10 +599,13 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
   const int capacity = static_cast<int>(out.size());
   while (top > 0) {
     if (!WorkMeter::Charge(1)) return found;
-    const BvhNode& node = nodes[stack[--top]];
+    const int node_index = stack[--top];
+    const BvhNode& node = nodes[node_index];
     int within = 0;
     if (float_box.usable) {
       within = float_box.ChildrenWithin(node);
+      // then the discs, which pass over much of what the boxes keep near a surface
+      if (within != 0) within &= float_discs.ChildrenWithin(discs[node_index]);
     } else {
       double d2[kBvhWidth];
       ChildDistancesSquared(node, q_lo, q_hi, d2);
@@ -610,6 +615,7 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
       if (!(within >> k & 1)) continue;
       if (!node.is_leaf(k)) {
         Prefetch(nodes[node.child[k]]);
+        Prefetch(discs[node.child[k]]);
         stack[top++] = node.child[k];
         continue;
       }

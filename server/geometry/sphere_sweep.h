@@ -107,8 +107,9 @@ bool LiesFartherThan(const PreparedTriangle& triangle, const Vector3& p, double 
 // no particular order: writes them to out and returns how many there are, or
 // out.size() + 1 as soon as more are found than out holds (the traversal stops there).
 // Every triangle left out is farther than the radius from the segment: it was passed
-// over by a lower bound of its distance (its box's from the segment's box, or its height
-// over its plane beside its bounding circle, as SweepSphereTriangles bounds a sweep).
+// over by a lower bound of its distance (its box's from the segment's box, the disc's
+// about its BVH child (BvhDiscs), or its height over its plane beside its bounding
+// circle, as SweepSphereTriangles bounds a sweep).
 // Charges the work meter like the BVH queries (one unit per node opened and per
 // primitive tested); non-finite input finds nothing.
 int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<PreparedTriangle> out);

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <random>
@@ -11,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "server/geometry/bvh_simd.h"
+#include "server/geometry/capsule_triangle.h"
 #include "server/geometry/mesh_generators.h"
 #include "server/geometry/test/random_geometry.h"
 
@@ -18,6 +21,60 @@ namespace hapticd::geometry {
 namespace {
 
 using Indices = TriangleMesh::TriangleIndices;
+
+// The primitives under child c of a node, found by walking down.
+std::vector<int> PrimitivesUnder(const MeshBvh& bvh, int node, int c) {
+  const BvhNode& n = bvh.nodes()[node];
+  if (n.is_leaf(c)) {
+    std::vector<int> all(n.count[c]);
+    for (int i = 0; i < n.count[c]; ++i) all[i] = n.first_primitive(c) + i;
+    return all;
+  }
+  std::vector<int> all;
+  for (int k = 0; k < kBvhWidth; ++k) {
+    const std::vector<int> below = PrimitivesUnder(bvh, n.child[c], k);
+    all.insert(all.end(), below.begin(), below.end());
+  }
+  return all;
+}
+
+// Each child of at most kMaxDiscTriangles triangles has a finite disc that holds every
+// corner under it (to the float normal's rounding); the others have an infinite one.
+void ExpectDiscsHoldTheirChildren(const MeshBvh& bvh, const std::string& what) {
+  ASSERT_EQ(bvh.discs().size(), bvh.nodes().size()) << what;
+  int finite = 0;
+  for (int node = 0; node < static_cast<int>(bvh.nodes().size()); ++node) {
+    const BvhDiscs& discs = bvh.discs()[node];
+    for (int c = 0; c < kBvhWidth; ++c) {
+      const std::vector<int> under = PrimitivesUnder(bvh, node, c);
+      if (!std::isfinite(discs.radius[c])) {
+        EXPECT_EQ(discs.thickness[c], std::numeric_limits<float>::infinity()) << what;
+        const bool small = !under.empty() && under.size() <= kMaxDiscTriangles;
+        // (a small child is left infinite only where float cannot hold its disc)
+        if (small) EXPECT_GT(bvh.bounds().size().norm(), 1e30) << what << ": node " << node << " child " << c;
+        continue;
+      }
+      ++finite;
+      EXPECT_LE(under.size(), kMaxDiscTriangles) << what;
+      const Vector3 centre(discs.centre[0][c], discs.centre[1][c], discs.centre[2][c]);
+      const Vector3 normal(discs.normal[0][c], discs.normal[1][c], discs.normal[2][c]);
+      EXPECT_NEAR(normal.norm(), 1, 1e-6) << what;
+      for (const int i : under) {
+        const Triangle& t = bvh.primitive(i);
+        for (const Vector3& corner : {t.v0, t.v1, t.v2}) {
+          const Vector3 offset = corner - centre;
+          const double height = offset.dot(normal.normalized());
+          const double slack = 1e-6 * offset.norm();
+          EXPECT_LE(std::abs(height), discs.thickness[c] + slack) << what << ": node " << node << " child " << c;
+          EXPECT_LE((offset - height * normal.normalized()).norm(), discs.radius[c] + slack)
+              << what << ": node " << node << " child " << c;
+        }
+      }
+    }
+  }
+  // (a mesh beyond float's range has none)
+  if (bvh.bounds().size().norm() < 1e30) EXPECT_GT(finite, 0) << what;
+}
 
 // Checks the structure of a BVH against its mesh:
 //  - every node is reached exactly once from the root, and no slot is left unused;
@@ -146,8 +203,9 @@ TEST(MeshBvh, StructureInvariantsHold) {
         options.max_leaf_size = leaf;
         options.num_threads = threads;
         const MeshBvh bvh(mesh, options);
-        ExpectValidBvh(bvh, options, name + " leaf " + std::to_string(leaf) + " threads " +
-                                         std::to_string(threads));
+        const std::string what = name + " leaf " + std::to_string(leaf) + " threads " + std::to_string(threads);
+        ExpectValidBvh(bvh, options, what);
+        ExpectDiscsHoldTheirChildren(bvh, what);
       }
     }
   }
@@ -206,6 +264,94 @@ TEST(MeshBvh, FloatBoxesAreRoundedOutwards) {
   EXPECT_GT(box.max.z(), 0.7);
   // and by no more than a float's rounding
   EXPECT_LT((box.size() - mesh->bounds().size()).norm(), 1e-6);
+}
+
+// The gather's disc test (bvh_simd::FloatDiscsWithin) passes over a child only when no
+// triangle under it lies within the distance of the segment (brute force): on segments
+// from near random corners of four meshes, and on a sphere avatar resting on the
+// icosphere and on the torus's outer equator (radius 1 to 6 mm, the distance 40 um more,
+// moving up to 0.5 mm along the surface), where the boxes keep a ring of leaves beyond
+// the distance. There it passes over most of that ring: what it is for.
+TEST(BvhDiscs, PassOverOnlyWhatLiesBeyondTheDistance) {
+  std::mt19937_64 rng(1204);
+  std::uniform_real_distribution<double> unit(0, 1);
+  const auto direction = [&] {
+    const Vector3 v(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5);
+    return Vector3(v.normalized());
+  };
+  struct Surface {
+    std::string name;
+    TriangleMesh mesh;
+    // where a sphere of radius r rests on it (none: only random segments)
+    std::function<Vector3(double r)> resting;
+  };
+  const Surface surfaces[] = {
+      {"icosphere", MakeIcosphere(40, 0.05), [&](double r) { return Vector3((0.05 + r) * direction()); }},
+      {"torus", MakeTorus(0.05, 0.02, 400, 160),
+       [&](double r) {
+         const double angle = 2 * M_PI * unit(rng);
+         return Vector3((0.07 + r) * Vector3(std::cos(angle), std::sin(angle), 0));
+       }},
+      {"box", MakeBoxMesh({0.1, 0.06, 0.04}, 30), nullptr},
+      {"soup", MakeRandomSoup(rng, 4000, 0.02, 17, 5), nullptr},
+  };
+  for (const Surface& surface : surfaces) {
+    const MeshBvh bvh(std::make_shared<const TriangleMesh>(surface.mesh));
+    int ring = 0;  // leaves the boxes keep beyond the distance of a resting sphere
+    int ring_passed_over = 0;
+    for (int trial = 0; trial < 120; ++trial) {
+      const bool rests = surface.resting && trial % 2 == 0;
+      Vector3 a, b;
+      double keep;
+      if (rests) {
+        const double r = 0.001 + 0.005 * unit(rng);
+        a = surface.resting(r);
+        const Vector3 along = direction();
+        b = a + 0.0005 * unit(rng) * (along - along.dot(a.normalized()) * a.normalized());
+        keep = r + 4e-5;
+      } else {
+        // from near a corner of the mesh, up to 6 mm away, moving up to 2 mm
+        const Vector3 corner = surface.mesh.vertices()[rng() % surface.mesh.vertices().size()];
+        a = corner + 0.006 * unit(rng) * direction();
+        b = trial % 3 == 0 ? a : Vector3(a + 0.002 * unit(rng) * direction());
+        keep = 0.006 * unit(rng);
+      }
+      const bvh_simd::FloatBoxWithin boxes(Aabb{a.cwiseMin(b), a.cwiseMax(b)}, keep);
+      const bvh_simd::FloatDiscsWithin discs(a, b - a, keep);
+      std::vector<int> todo = {0};
+      while (!todo.empty()) {
+        const int node = todo.back();
+        todo.pop_back();
+        const int by_box = boxes.ChildrenWithin(bvh.nodes()[node]);
+        const int by_disc = discs.ChildrenWithin(bvh.discs()[node]);
+        for (int c = 0; c < kBvhWidth; ++c) {
+          if (!(by_box >> c & 1)) continue;
+          if (!bvh.nodes()[node].is_leaf(c)) todo.push_back(bvh.nodes()[node].child[c]);
+          const std::vector<int> under = PrimitivesUnder(bvh, node, c);
+          if (under.size() > kMaxDiscTriangles) {
+            EXPECT_TRUE(by_disc >> c & 1) << surface.name << ": an infinite disc keeps everything";
+            continue;
+          }
+          double nearest = std::numeric_limits<double>::infinity();
+          for (const int i : under) {
+            nearest = std::min(nearest, CalcCapsuleTriangleContact({a, b, 0}, bvh.primitive(i)).distance);
+          }
+          const bool passed_over = !(by_disc >> c & 1);
+          if (passed_over) {
+            EXPECT_GT(nearest, keep) << surface.name << " trial " << trial << ": node " << node << " child " << c;
+          }
+          if (rests && bvh.nodes()[node].is_leaf(c) && nearest > keep) {
+            ++ring;
+            ring_passed_over += passed_over;
+          }
+        }
+      }
+    }
+    if (surface.resting) {
+      EXPECT_GT(ring, 300) << surface.name;
+      EXPECT_GT(ring_passed_over, ring / 2) << surface.name;
+    }
+  }
 }
 
 TEST(MeshBvh, RejectsNullMeshAndBadOptions) {
