@@ -483,18 +483,19 @@ void FillRanges(const std::vector<BvhNode>& nodes, int node, std::vector<Primiti
 // many, or where float cannot hold it).
 void FitDisc(std::span<const Triangle> triangles, int c, BvhDiscs& discs) {
   if (triangles.empty() || triangles.size() > kMaxDiscTriangles) return;
-  Vector3 lo = Vector3::Constant(std::numeric_limits<double>::infinity());
-  Vector3 hi = -lo;
+  // any centre and unit normal make a disc that holds them; the corners' mean and the
+  // summed normal a small, thin one (for one triangle, its bounding circle about its
+  // centroid: a smaller disc than about its box's middle, and the bound of
+  // LowerDistanceExceeds)
+  Vector3 mid = Vector3::Zero();
   Vector3 area = Vector3::Zero();
   for (const Triangle& t : triangles) {
-    lo = lo.cwiseMin(t.v0).cwiseMin(t.v1).cwiseMin(t.v2);
-    hi = hi.cwiseMax(t.v0).cwiseMax(t.v1).cwiseMax(t.v2);
+    mid += t.v0 + t.v1 + t.v2;
     area += (t.v1 - t.v0).cross(t.v2 - t.v0);
   }
-  // any unit normal makes a disc that holds them; their summed normal a thin one
+  mid /= 3.0 * static_cast<double>(triangles.size());
   const double length = area.norm();
   const Vector3 unit = length > 0 && std::isfinite(length) ? Vector3(area / length) : Vector3::UnitZ();
-  const Vector3 mid = (lo + hi) / 2;
   // (rounded by RoundDownToFloat, not a cast: at -O3 GCC 12's SLP vectorizer kept the
   // doubles of a cast for centre_d below, so the disc missed corners by ulps of float)
   float centre[3], normal[3];

@@ -33,6 +33,7 @@ constexpr double kNoHit = -1;
 // One sweep's constants, shared by every triangle it meets.
 struct Sweep {
   Vector3 a, b, d;      // start, end, motion b - a
+  double inverse_motion_squared;  // 1 / |d|^2, so that triangles are passed over without a division
   double radius;        // 0: swept as a point
   double block_radius;  // radius - skin: how close the centre must come to block
   double scale;         // r + max |a_i|, |b_i|: the magnitude of the coordinates
@@ -56,6 +57,7 @@ bool MakeSweep(const Vector3& a, const Vector3& b, double r, Sweep& s) {
   s.a = a;
   s.b = b;
   s.d = b - a;
+  s.inverse_motion_squared = 1 / s.d.squaredNorm();
   s.scale = ScaleOf(a, b, r);
   // a radius lost in the rounding of the coordinates: a point
   s.radius = r > kPointRadius * s.scale ? r : 0;
@@ -215,7 +217,7 @@ double BoundingRadiusOf(const Triangle& tri, const Vector3& centroid) {
 // resting sphere that the boxes and the plane test keep.
 bool PassesFarFrom(const Vector3& centroid, double bounding_radius, const Sweep& s) {
   const Vector3 offset = s.a - centroid;
-  const double nearest = std::clamp(-offset.dot(s.d) / s.d.squaredNorm(), 0.0, 1.0);
+  const double nearest = std::clamp(-offset.dot(s.d) * s.inverse_motion_squared, 0.0, 1.0);
   const double bound = s.reach + bounding_radius;
   return (offset + nearest * s.d).squaredNorm() > bound * bound;
 }
@@ -630,7 +632,9 @@ int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<Pre
         // the mesh's face normal: UnitOrZero(AreaNormal(tri)), made with the mesh
         const int index = bvh.primitive_triangle(i);
         const Vector3& normal = mesh.face_normal(index);
-        if (LowerDistanceExceeds(normal, centroid, bounding_radius_squared, a, d, r2)) continue;
+        // (a leaf of one triangle with a disc has just passed this bound, in float)
+        const bool disc_tested = float_box.usable && node.count[k] == 1 && std::isfinite(discs[node_index].radius[k]);
+        if (!disc_tested && LowerDistanceExceeds(normal, centroid, bounding_radius_squared, a, d, r2)) continue;
         // full: say so, and stop
         if (found == capacity) return capacity + 1;
         Prepare(tri, index, centroid, bounding_radius_squared, normal, out[found++]);
