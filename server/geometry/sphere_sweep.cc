@@ -570,8 +570,15 @@ PreparedTriangle PrepareTriangle(const Triangle& triangle, int index) {
 }
 
 bool LiesFartherThan(const PreparedTriangle& triangle, const Vector3& p, double limit) {
-  return LowerDistanceExceeds(triangle.normal, triangle.centroid, triangle.bounding_radius * triangle.bounding_radius,
-                              p, Vector3::Zero(), limit * limit);
+  // LowerDistanceExceeds for a segment of no length, with the same arithmetic (its
+  // height at both ends is the one height, and its drift zero)
+  const Vector3 offset = p - triangle.centroid;
+  const double height = triangle.normal.dot(offset);
+  const double left = limit * limit - height * height;
+  if (left < 0) return true;
+  const double bounding_radius_squared = triangle.bounding_radius * triangle.bounding_radius;
+  const double excess = (offset - height * triangle.normal).squaredNorm() - bounding_radius_squared - left;
+  return excess > 0 && excess * excess > 4 * bounding_radius_squared * left;
 }
 
 int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<PreparedTriangle> out) {
@@ -649,7 +656,7 @@ SphereSweepHit SweepSphereTriangles(std::span<const PreparedTriangle> triangles,
   Sweep s;
   if (!MakeSweep(a, b, r, s)) return {};
   // SweepSphereMesh's leaf test on each triangle: its exact box reject, the bounding
-  // sphere's, then the sweep
+  // sphere's, then the sweep; with the tighter plane-and-circle bound before the sphere
   if (!WorkMeter::Charge((static_cast<int64_t>(triangles.size()) + 7) / 8)) return {};
   const Aabb reach = Aabb{a.cwiseMin(b), a.cwiseMax(b)}.Inflated(s.reach);
   int best = -1;
@@ -657,9 +664,11 @@ SphereSweepHit SweepSphereTriangles(std::span<const PreparedTriangle> triangles,
   for (int i = 0; i < static_cast<int>(triangles.size()); ++i) {
     const PreparedTriangle& prepared = triangles[i];
     if (!AabbsOverlap(reach, prepared.box)) continue;
-    // the mesh sweep's bounding-sphere reject first (the cheaper), then the tighter one
-    if (s.radius > 0 && (PassesFarFrom(prepared.centroid, prepared.bounding_radius, s) ||
-                         PassesFarFrom(prepared, s))) {
+    // the tighter bound first: where a sphere slides over a dense surface the bounding
+    // spheres of nearly every gathered triangle come within reach, and it passes over
+    // all but a few (finger proxy on 1.3M triangles: 81 -> 6 a sweep)
+    if (s.radius > 0 && (PassesFarFrom(prepared, s) ||
+                         PassesFarFrom(prepared.centroid, prepared.bounding_radius, s))) {
       continue;
     }
     if (!WorkMeter::Charge(1)) return {};

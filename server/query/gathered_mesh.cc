@@ -41,8 +41,15 @@ std::optional<geometry::MeshClosestPoint> FindGatheredClosestPoint(const Gathere
   double best_d2 = max_distance * max_distance;
   int seed = -1;
   double seed_d2 = best_d2;
+  // the boxes' distances, kept for the second pass (as many as fit)
+  constexpr int kKeptBoxDistances = 256;
+  double box_d2[kKeptBoxDistances];
+  const auto box_distance_squared = [&](int i) {
+    return i < kKeptBoxDistances ? box_d2[i] : geometry::CalcPointAabbDistanceSquared(p_B, triangles[i].box);
+  };
   for (int i = 0; i < n; ++i) {
     const double d2 = geometry::CalcPointAabbDistanceSquared(p_B, triangles[i].box);
+    if (i < kKeptBoxDistances) box_d2[i] = d2;
     if (d2 <= seed_d2 && (seed < 0 || d2 < seed_d2)) seed = i, seed_d2 = d2;
   }
   int best = -1;
@@ -62,7 +69,7 @@ std::optional<geometry::MeshClosestPoint> FindGatheredClosestPoint(const Gathere
     if (!geometry::WorkMeter::Charge(1)) return std::nullopt;
     consider(seed);
     for (int i = 0; i < n; ++i) {
-      if (i == seed || geometry::CalcPointAabbDistanceSquared(p_B, triangles[i].box) > best_d2 ||
+      if (i == seed || box_distance_squared(i) > best_d2 ||
           PassedOver(triangles[i], p_B, p_scale, limit)) {
         continue;
       }
