@@ -146,13 +146,16 @@ struct FloatBoxWithin {
 // thickness; the normal is unit to 1e-7 too): a child is passed over only where the bound
 // squared exceeds the distance squared by 1e-5 of the sum of those magnitudes squared,
 // far above that rounding. Anything not finite on the way (a disc of infinite radius,
-// an overflow) keeps the child.
+// an overflow) keeps the child, and so does every child for a distance or motion whose
+// square float cannot hold comfortably (1e18 or more).
 struct FloatDiscsWithin {
   static constexpr float kSlack = 1e-5f;
+  static constexpr double kMaxLength = 1e18;
   Double2 a[3];
   Float4 d[3];
   float keep_squared;
   float motion_squared;
+  bool keeps_all;
 
   FloatDiscsWithin(const Vector3& start, const Vector3& motion, double keep) {
     for (int axis = 0; axis < 3; ++axis) {
@@ -161,11 +164,13 @@ struct FloatDiscsWithin {
     }
     keep_squared = RoundUpToFloat(keep * keep);
     motion_squared = static_cast<float>(motion.squaredNorm());
+    keeps_all = !(keep < kMaxLength && motion.norm() < kMaxLength);
   }
 
   // Bit c set where child c may hold something within keep of the segment.
   int ChildrenWithin(const BvhDiscs& discs) const {
     static_assert(kBvhWidth == 4, "one vector of four children per node");
+    if (keeps_all) return (1 << kBvhWidth) - 1;
     Float4 o[3], n[3];
     for (int axis = 0; axis < 3; ++axis) {
       Double2 low, high;
