@@ -429,13 +429,15 @@ inline int IntersectChildren(const BvhNode& node, const GrownSlabs& s, double t_
   return mask;
 }
 
-// Walks the BVH front to back along a -> b with boxes grown by margin. visit(first,
+// Walks the BVH front to back along a -> b with boxes grown by margin, passing over the
+// children whose discs lie farther than margin from the whole segment. visit(first,
 // count) tests a leaf's primitives and returns the new t_max (the segment is cut at a
 // hit), or a negative value to stop.
 template <typename LeafVisitor>
 void TraverseGrownSegment(const MeshBvh& bvh, const Vector3& a, const Vector3& b, double margin,
                           LeafVisitor visit) {
   const GrownSlabs slabs(a, b, margin);
+  const FloatDiscsWithin discs(a, b - a, margin);
   const std::vector<BvhNode>& nodes = bvh.nodes();
   StackEntry stack[(kBvhWidth - 1) * kMaxBvhDepth];
   int top = 0;
@@ -446,7 +448,8 @@ void TraverseGrownSegment(const MeshBvh& bvh, const Vector3& a, const Vector3& b
     if (!WorkMeter::Charge(1)) return;
     const BvhNode& node = nodes[current];
     double t_entry[kBvhWidth];
-    const int mask = IntersectChildren(node, slabs, t_max, t_entry);
+    int mask = IntersectChildren(node, slabs, t_max, t_entry);
+    if (mask != 0) mask &= discs.ChildrenWithin(bvh.discs()[current]);
     // the touched children by entry t (insertion sort of at most kBvhWidth)
     int order[kBvhWidth];
     int num = 0;
@@ -465,6 +468,7 @@ void TraverseGrownSegment(const MeshBvh& bvh, const Vector3& a, const Vector3& b
       if (!within(t_entry[c])) break;
       if (!node.is_leaf(c)) {
         Prefetch(nodes[node.child[c]]);
+        Prefetch(bvh.discs()[node.child[c]]);
         internal[num_internal++] = c;
       } else if (node.count[c] > 0) {
         if (!WorkMeter::Charge(node.count[c])) return;
