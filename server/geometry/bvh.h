@@ -60,13 +60,14 @@ struct alignas(64) BvhNode {
 static_assert(sizeof(BvhNode) == 32 * kBvhWidth);
 
 // A second bound of a node's children, beside their boxes, for the queries that ask what
-// lies near a piece of surface (the gather of triangles near a sphere avatar:
-// sphere_sweep.h): a thick disc about each child, its centre (the mean of the child's
-// corners) and unit normal (its triangles' summed area normal), in float, and its radius
-// within its plane and half-thickness along its normal. Where a sphere rests on a curved surface, the triangles a little
-// beside the contact lie much nearer it by their boxes than they are, and the box test
-// keeps a ring of them; their discs pass most of that ring over (the gather of the
-// finger proxy on 1.3M triangles: 404 -> 163 units of work, 8.7 -> 5.4 us).
+// lies near a piece of surface (sphere_sweep.h: the gather of triangles near a sphere
+// avatar, and the sphere sweep through a whole mesh): a thick disc about each child,
+// its centre (the mean of the child's corners) and unit normal (its triangles' summed
+// area normal), in float, and its radius within its plane and half-thickness along its
+// normal. Where a sphere rests on a curved surface, the triangles a little beside the
+// contact lie much nearer it by their boxes than they are, and the box test keeps a ring
+// of them; their discs pass most of that ring over (the gather of the finger proxy on
+// 1.3M triangles: 404 -> 163 units of work, 8.7 -> 5.4 us).
 //
 // Only a child of at most kMaxDiscTriangles triangles gets a disc (higher up they are
 // loose, and the boxes prune there; 64 prunes as well as 256 and builds faster); the

@@ -137,7 +137,7 @@ struct FloatBoxWithin {
 };
 
 // A segment a -> a + d and a distance, for ChildrenWithin a node's discs (BvhDiscs), in
-// float: the gather's second test, after the boxes. Over the segment, the least height
+// float: the second test of the gather and of the sphere sweep, after the boxes. Over the segment, the least height
 // over a disc's plane beyond its thickness and the least distance within the plane
 // beyond its radius bound the distance to anything in the disc below (the bound of
 // LowerDistanceExceeds in sphere_sweep.cc, for a triangle: a disc of no thickness).
