@@ -222,6 +222,12 @@ bool PassesFarFrom(const Vector3& centroid, double bounding_radius, const Sweep&
   return (offset + nearest * s.d).squaredNorm() > bound * bound;
 }
 
+// The last step of the bound below, for both its forms: whether l - b > sqrt(s2), given
+// excess = (l^2 - b^2 - s2) scale and its scale (l^2 known times scale, so no division).
+bool ExceedsBeyondCircle(double excess, double bounding_radius_squared, double left, double scale) {
+  return excess > 0 && excess * excess > 4 * bounding_radius_squared * left * scale * scale;
+}
+
 // Whether the segment a -> a + d stays farther than sqrt(limit_squared) from a triangle
 // lying in the plane through centroid with unit normal n (zero: no area), within
 // sqrt(bounding_radius_squared) of centroid, by a lower bound of the distance: at a point
@@ -258,7 +264,7 @@ bool LowerDistanceExceeds(const Vector3& n, const Vector3& centroid, double boun
     scale = drift_squared;
     excess = drift_squared * (lateral.squaredNorm() - bounding_radius_squared - left) - toward * toward;
   }
-  return excess > 0 && excess * excess > 4 * bounding_radius_squared * left * scale * scale;
+  return ExceedsBeyondCircle(excess, bounding_radius_squared, left, scale);
 }
 
 // Whether a sweep of radius > 0 stays farther than its reach from a prepared triangle,
@@ -582,7 +588,7 @@ bool LiesFartherThan(const PreparedTriangle& triangle, const Vector3& p, double 
   if (left < 0) return true;
   const double bounding_radius_squared = triangle.bounding_radius * triangle.bounding_radius;
   const double excess = (offset - height * triangle.normal).squaredNorm() - bounding_radius_squared - left;
-  return excess > 0 && excess * excess > 4 * bounding_radius_squared * left;
+  return ExceedsBeyondCircle(excess, bounding_radius_squared, left, 1);
 }
 
 int GatherMeshTriangles(const MeshBvh& bvh, const Capsule& region, std::span<PreparedTriangle> out) {
