@@ -277,7 +277,8 @@ def main() -> None:
     args = parser.parse_args()
 
     runs = read_runs(args.runs)
-    write_csv([r for r in runs if r["phase"] != "edits-load"], args.csv)
+    idle = next((r for r in runs if r["phase"] == "idle"), None)
+    write_csv([r for r in runs if r["phase"] not in ("edits-load", "idle")], args.csv)
     compare, p50_ratio, p99_ratio = compare_section([r for r in runs if r["phase"] == "compare"])
     sessions, held, echo_held, limited, cost_us, ratios = sessions_section(
         [r for r in runs if r["phase"] == "sessions"])
@@ -324,6 +325,10 @@ def main() -> None:
           f"{echo_us:.1f} µs (the kernel's loopback path on both); hapticd's own work is about the "
           f"difference, {server_us - echo_us:.1f} µs. A core of its own would carry about {per_core:.0f} "
           "sessions at 1 kHz (CPU time only).")
+    if idle is not None:
+        print(f"- Idle (no session, no client, {idle['seconds']} s): hapticd used "
+              f"{idle['hapticd_cpu_s'] / idle['seconds'] * 1e6:.0f} µs of CPU a second, the echo "
+              f"{idle['echo_cpu_s'] / idle['seconds'] * 1e6:.0f} µs.")
     print(f"- Scene edits (a 10 MB mesh uploaded, edited and removed in a loop): p99 while editing / "
           f"quiet p99 = {edits_ratio:.2f} (median over blocks).")
     server_side = ns.get("DecodeState", 0) + ns.get("EncodeCommand", 0)

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
 # The realtime channel's latency, in one run on this machine:
+#   0. the CPU hapticd and the echo use a second while idle (no session, no client);
 #   1. device-to-command round trip of one 1 kHz session (the C++ proxy's simulated hand
 #      stroking the default scene) against hapticd and against a plain UDP echo, in
 #      alternating blocks;
@@ -115,6 +116,14 @@ proxy() {
   main_after="$(main_cpu_seconds "$pid")"
   echo "{\"phase\": \"$phase\", \"block\": $block, \"peer_cpu_s\": $(awk -v a="$after" -v b="$before" 'BEGIN { printf "%.4f", a - b }'), \"peer_main_cpu_s\": $(awk -v a="$main_after" -v b="$main_before" 'BEGIN { printf "%.4f", a - b }'), \"result\": $line}" >>"$runs"
 }
+
+# 0. both idle (no session, no client): the CPU each uses a second while waiting
+echo "run_latency: idle" >&2
+idle_seconds=3
+hapticd_before="$(cpu_seconds "$hapticd_pid")"
+echo_before="$(cpu_seconds "$echo_pid")"
+sleep "$idle_seconds"
+echo "{\"phase\": \"idle\", \"block\": 0, \"result\": {\"seconds\": $idle_seconds, \"hapticd_cpu_s\": $(awk -v a="$(cpu_seconds "$hapticd_pid")" -v b="$hapticd_before" 'BEGIN { printf "%.6f", a - b }'), \"echo_cpu_s\": $(awk -v a="$(cpu_seconds "$echo_pid")" -v b="$echo_before" 'BEGIN { printf "%.6f", a - b }')}}" >>"$runs"
 
 # 1. one session, hapticd and echo alternating
 for block in $(seq "$blocks"); do

@@ -4,6 +4,7 @@
 #include <fstream>
 
 #include <asio/io_context.hpp>
+#include <asio/post.hpp>
 #include <asio/signal_set.hpp>
 #include <asio/steady_timer.hpp>
 #include <fmt/format.h>
@@ -113,9 +114,22 @@ struct Server::Impl {
   }
 
   // The local models (net/model_feed.h): a pass every 2 ms while a local-model session
-  // lives, every 20 ms otherwise (how soon a new one gets its first model at the latest).
+  // lives. Without one the feed sleeps; opening one starts it, with a pass right after
+  // the open's reply.
+  void StartModelFeed() {
+    if (feeding_models || stopping) return;
+    feeding_models = true;
+    asio::post(context, [this] {
+      if (!stopping) FeedModels();
+    });
+  }
+
   void FeedModels() {
-    model_timer.expires_after(models.Pass(net::MonotonicNowNs()) ? 2ms : 20ms);
+    if (!models.Pass(net::MonotonicNowNs())) {
+      feeding_models = false;
+      return;
+    }
+    model_timer.expires_after(2ms);
     model_timer.async_wait([this](std::error_code error) {
       if (error || stopping) return;
       FeedModels();
@@ -159,6 +173,7 @@ struct Server::Impl {
   asio::steady_timer model_timer;
   std::chrono::steady_clock::time_point last_kinematics;
   bool kinematics_running = false;
+  bool feeding_models = false;
   asio::signal_set signals;
   // Set on SIGINT/SIGTERM: a timer whose handler was already due when it was cancelled
   // must not arm itself again, or the io_context would never run out of work.
@@ -201,7 +216,7 @@ void Server::Run() {
   }
   impl.control.Start();
   impl.Housekeep();
-  impl.FeedModels();
+  impl.service.OnLocalModelSession([&impl] { impl.StartModelFeed(); });
   impl.service.OnSceneMoving([&impl] { impl.StartKinematics(); });
   if (impl.service.scene_moving()) impl.StartKinematics();
   Log(LogLevel::kInfo, "serving {} ({} objects, up to {} sessions)", EndpointsJson(),

@@ -400,7 +400,9 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const Connect
   slot.close_requested.store(false, std::memory_order_relaxed);
   sessions_.MarkOpened(index);
   slot.state.store(SlotState::kWaiting, std::memory_order_release);
+  sessions_.Ring();  // the realtime thread may be asleep without a timeout
   ++sessions_opened_;
+  if (local_model && on_local_model_session_) on_local_model_session_();
   Log(LogLevel::kInfo, "session {} opened: {} {} avatar, {}, {} Hz, max force {} N{}{}{}", SessionName(id),
       force::DeviceModeName(settings.device.mode), force::AvatarTypeName(settings.avatar.type),
       force::ForceMethodName(settings.avatar.method), settings.device.rate_hz, settings.device.max_force,
@@ -451,7 +453,8 @@ void ControlService::ConnectionClosed(uint64_t connection_id) {
 
 void ControlService::ReclaimSessions() {
   const int64_t now_ns = MonotonicNowNs();
-  for (int i = 0; i < sessions_.capacity(); ++i) {
+  // slots past used_slots() were never opened: nothing there to hand back
+  for (int i = 0; i < sessions_.used_slots(); ++i) {
     SessionSlot& slot = sessions_.slot(i);
     const SlotState state = slot.state.load(std::memory_order_acquire);
     if (state != SlotState::kClosed && state != SlotState::kTimedOut) continue;

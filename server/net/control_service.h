@@ -89,6 +89,9 @@ class ControlService {
   // start() is called after each edit that leaves the scene moving (the server starts its
   // kinematics timer, if it is not running).
   void OnSceneMoving(std::function<void()> start) { on_scene_moving_ = std::move(start); }
+  // start() is called when a local-model session opens (the server starts feeding models,
+  // if it is not already).
+  void OnLocalModelSession(std::function<void()> start) { on_local_model_session_ = std::move(start); }
 
   const ServiceOptions& options() const { return options_; }
   // Control thread only: the transport counts its connections here.
@@ -111,6 +114,7 @@ class ControlService {
 
   scene::SceneBuilder builder_;
   std::function<void()> on_scene_moving_;
+  std::function<void()> on_local_model_session_;
   scene::SnapshotPublisher& publisher_;
   SessionTable& sessions_;
   const RealtimeCounters& realtime_;

@@ -21,10 +21,11 @@ namespace hapticd::net {
 namespace {
 
 // The housekeeping pass (silent sessions, closes, timeouts; see realtime_channel.h): at
-// most one a millisecond by the clock, and when it has nothing due, one every kIdlePassNs
-// (how soon a close or a new session's silence is seen at the latest); one due within
-// kEarlyPassNs runs right after a batch of datagrams, without a wake-up of its own (a
-// device's next state, due 0.5 ms before its silent tick, may come a little early).
+// most one a millisecond by the clock, and while sessions live but have nothing due, one
+// every kIdlePassNs (how soon a close is seen at the latest); with none live, none until
+// a datagram comes or the session table's doorbell rings. One due within kEarlyPassNs
+// runs right after a batch of datagrams, without a wake-up of its own (a device's next
+// state, due 0.5 ms before its silent tick, may come a little early).
 constexpr int64_t kTickNs = 1'000'000;
 constexpr int64_t kIdlePassNs = 2'000'000;
 constexpr int64_t kEarlyPassNs = kTickNs * 3 / 4;
@@ -186,21 +187,29 @@ bool RealtimeChannel::Start(int priority) {
 
 void RealtimeChannel::Stop() {
   stop_.store(true);
+  sessions_.Ring();
   if (thread_.joinable()) thread_.join();
 }
 
 void RealtimeChannel::Run() {
   int64_t last_pass_ns = MonotonicNowNs();
   next_pass_ns_ = last_pass_ns + kTickNs;
-  pollfd waiter{fd_, POLLIN, 0};
+  std::array<pollfd, 2> waiters{pollfd{fd_, POLLIN, 0}, pollfd{sessions_.doorbell_fd(), POLLIN, 0}};
   while (!stop_.load(std::memory_order_relaxed)) {
     // Wait for datagrams, at most until the pass is due (never sooner than a millisecond
-    // after the last one, so that a stall is not replayed tick by tick).
+    // after the last one, so that a stall is not replayed tick by tick); with no session
+    // live, for a datagram or the doorbell (a session opened: its pass is due now).
     const int64_t due_ns = std::max(next_pass_ns_, last_pass_ns + kTickNs);
     const int64_t wait_ns = std::clamp<int64_t>(due_ns - MonotonicNowNs(), 0, kIdlePassNs);
     const timespec timeout{0, static_cast<long>(wait_ns)};
-    waiter.revents = 0;
-    const bool received = ppoll(&waiter, 1, &timeout, nullptr) > 0;
+    for (pollfd& waiter : waiters) waiter.revents = 0;
+    ppoll(waiters.data(), waiters.size(), any_live_ ? &timeout : nullptr, nullptr);
+    if (waiters[1].revents & POLLIN) {
+      sessions_.Answer();
+      any_live_ = true;
+      next_pass_ns_ = MonotonicNowNs();
+    }
+    const bool received = waiters[0].revents & POLLIN;
     if (received) ReceiveAndReply(MonotonicNowNs());
 
     // The pass, when due; while awake for datagrams, also when due soon.
@@ -302,6 +311,7 @@ bool RealtimeChannel::HandleDatagram(int index, int reply, int64_t now_ns,
   slot.last_send_ns = send_ns;
   slot.next_silent_tick_ns = now_ns + slot.period_ns + slot.period_ns / 2;
   next_pass_ns_ = std::min(next_pass_ns_, slot.next_silent_tick_ns);
+  any_live_ = true;
   slot.ramp_done = false;
   slot.state.store(SlotState::kActive, std::memory_order_release);
 
@@ -354,13 +364,16 @@ void RealtimeChannel::TickSilentSessions(int64_t now_ns) {
   const int used_slots = sessions_.used_slots();
   // the next pass: when the first live session is due, at the latest kIdlePassNs from now
   next_pass_ns_ = now_ns + kIdlePassNs;
+  any_live_ = false;
   for (int i = 0; i < used_slots; ++i) {
     SessionSlot& slot = sessions_.slot(i);
     const SlotState state = slot.state.load(std::memory_order_acquire);
     if (!IsLive(state)) continue;
     if (HousekeepSession(slot, state, now_ns, scene, replies)) ++replies;
     const SlotState after = slot.state.load(std::memory_order_relaxed);
-    if (IsLive(after)) next_pass_ns_ = std::min(next_pass_ns_, NextDueNs(slot, after));
+    if (!IsLive(after)) continue;
+    next_pass_ns_ = std::min(next_pass_ns_, NextDueNs(slot, after));
+    any_live_ = true;
   }
   publisher_.Release(reader_);
   SendReplies(replies);

@@ -18,9 +18,11 @@
 //      its timeout is handed back to the control thread as kTimedOut, a closed one as
 //      kClosed. The pass runs when the first session is due (its next silent tick, 1.5
 //      periods after its last state, or its timeout), at most once a millisecond by the
-//      clock and at least every 2 ms; one due within 0.75 ms runs at once after a
-//      batch of datagrams. Sessions that stream in time are never due, so their
-//      datagrams are the thread's only wake-ups.
+//      clock and at least every 2 ms while a session lives (with none, the thread
+//      sleeps until a datagram comes or the session table's doorbell rings: a session
+//      opened, or Stop); one due within 0.75 ms runs at once after a batch of
+//      datagrams. Sessions that stream in time are never due, so their datagrams are
+//      the thread's only wake-ups.
 // The channel's server side (remote/renderer_channel.h, the code hapticd-sim's renderer
 // runs too): an impedance session's avatar input steps towards the device's newest
 // position, or a deadband's prediction of it, through its RendererEnd (under TDPA as
@@ -137,6 +139,9 @@ class RealtimeChannel {
   int next_ended_ = 0;
   // When the housekeeping pass is next due (at most: a fresh state may bring it forward).
   int64_t next_pass_ns_ = 0;
+  // Whether the last pass (or a state since) found a live session: without one the
+  // thread waits with no timeout.
+  bool any_live_ = true;
 };
 
 }  // namespace hapticd::net

@@ -1,8 +1,13 @@
 #include "server/net/session_table.h"
 
 #include <sodium.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <cstdint>
 #include <stdexcept>
+#include <system_error>
 
 namespace hapticd::net {
 
@@ -18,6 +23,21 @@ SessionTable::SessionTable(int capacity) {
   if (sodium_init() < 0) throw std::runtime_error("libsodium failed to initialise");
   slots_.reserve(capacity);
   for (int i = 0; i < capacity; ++i) slots_.push_back(std::make_unique<SessionSlot>());
+  doorbell_fd_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+  if (doorbell_fd_ < 0) throw std::system_error(errno, std::generic_category(), "eventfd for the session table");
+}
+
+SessionTable::~SessionTable() { ::close(doorbell_fd_); }
+
+void SessionTable::Ring() {
+  const uint64_t one = 1;
+  // a full counter (2^64 - 2 rings unanswered) is still readable: nothing is lost
+  [[maybe_unused]] const ssize_t written = ::write(doorbell_fd_, &one, sizeof one);
+}
+
+void SessionTable::Answer() {
+  uint64_t rings = 0;
+  [[maybe_unused]] const ssize_t read = ::read(doorbell_fd_, &rings, sizeof rings);
 }
 
 int SessionTable::FindFree() const {

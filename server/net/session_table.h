@@ -155,6 +155,9 @@ class SessionTable {
  public:
   // capacity in [1, kMaxSessions].
   explicit SessionTable(int capacity);
+  ~SessionTable();
+  SessionTable(const SessionTable&) = delete;
+  SessionTable& operator=(const SessionTable&) = delete;
 
   int capacity() const { return static_cast<int>(slots_.size()); }
   SessionSlot& slot(int i) { return *slots_[i]; }
@@ -165,6 +168,12 @@ class SessionTable {
   // Control thread: MarkOpened before publishing a slot's state.
   int used_slots() const { return used_slots_.load(std::memory_order_acquire); }
   void MarkOpened(int index);
+  // The doorbell: with no live session the realtime thread sleeps until a datagram comes
+  // or this rings. Ring after publishing a slot's state (any thread); the realtime
+  // thread waits on doorbell_fd() and clears it with Answer().
+  void Ring();
+  int doorbell_fd() const { return doorbell_fd_; }
+  void Answer();
   // Control thread: the slot of a session that is not free, or -1.
   int FindById(uint32_t id) const;
   // Realtime thread: the live slot (kWaiting, kActive, kRamping) of id, or -1. O(1).
@@ -176,6 +185,7 @@ class SessionTable {
  private:
   std::vector<std::unique_ptr<SessionSlot>> slots_;
   std::atomic<int> used_slots_{0};
+  int doorbell_fd_ = -1;  // an eventfd
 };
 
 bool IsLive(SlotState state);

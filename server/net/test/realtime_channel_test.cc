@@ -269,6 +269,20 @@ TEST_F(RealtimeChannelTest, ClosedSessionsAreReclaimed) {
   EXPECT_EQ(again.error().code(), v1::Error::CODE_NOT_FOUND);
 }
 
+// With no live session the realtime thread waits without a timeout: opening one rings
+// the table's doorbell, so a session that never sends a state still times out, and
+// Stop (at the end of every test) wakes the thread to end.
+TEST_F(RealtimeChannelTest, ASessionOpenedWhileTheChannelIsIdleStillTimesOut) {
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));  // past the first pass: idle
+  const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_IMPEDANCE, {0, 0, 0.1}, 0.2);
+  const int index = harness_.sessions.FindById(session.id);
+  ASSERT_GE(index, 0);
+  ASSERT_TRUE(WaitUntil([&] { return !IsLive(harness_.sessions.slot(index).state.load()); }))
+      << "the silent session was not handed back within " << kDeadlineMs << " ms";
+  EXPECT_EQ(harness_.sessions.slot(index).state.load(), SlotState::kTimedOut);
+  EXPECT_EQ(harness_.realtime.counters().sessions_timed_out.load(), 1u);
+}
+
 TEST_F(RealtimeChannelTest, AnAdmittanceAvatarPushedIntoTheBoxStopsOnItsSurface) {
   const OpenedSession session = Open(harness_, v1::DEVICE_TYPE_ADMITTANCE, {0, 0, 0.07});
   DeviceSocket device(harness_.realtime.local_endpoint().port());
