@@ -136,16 +136,28 @@ struct Server::Impl {
     });
   }
 
-  // Every 50 ms: hand back finished sessions' slots; every 5 s: report the realtime
-  // thread's drop counters when they grew (it cannot log itself).
-  void Housekeep() {
-    housekeeping.expires_after(50ms);
+  // Every 50 ms while a session lives: hand back finished sessions' slots (each request
+  // does too); with none, every second (opening one brings the fast pace back). Every
+  // 5 s: report the realtime thread's drop counters when they grew (it cannot log itself).
+  void Housekeep(bool sessions_live) {
+    housekeeping.expires_after(sessions_live ? 50ms : 1s);
     housekeeping.async_wait([this](std::error_code error) {
       if (error || stopping) return;
-      service.ReclaimSessions();
-      if (++housekeeping_ticks % 100 == 0) ReportDrops();
-      Housekeep();
+      const bool live = service.ReclaimSessions();
+      const auto now = std::chrono::steady_clock::now();
+      if (now - last_drop_report >= 5s) {
+        ReportDrops();
+        last_drop_report = now;
+      }
+      Housekeep(live);
     });
+  }
+
+  // A session opened: housekeeping at its fast pace (the wait under way is cancelled),
+  // and the model feed for a local-model session.
+  void SessionOpened(bool local_model) {
+    Housekeep(true);
+    if (local_model) StartModelFeed();
   }
 
   void ReportDrops() {
@@ -178,7 +190,7 @@ struct Server::Impl {
   // Set on SIGINT/SIGTERM: a timer whose handler was already due when it was cancelled
   // must not arm itself again, or the io_context would never run out of work.
   bool stopping = false;
-  uint64_t housekeeping_ticks = 0;
+  std::chrono::steady_clock::time_point last_drop_report = std::chrono::steady_clock::now();
   uint64_t reported_drops = 0;
   uint64_t reported_send_errors = 0;
 };
@@ -215,8 +227,8 @@ void Server::Run() {
             : fmt::format("normal priority (SCHED_FIFO {} was not granted)", realtime_priority_));
   }
   impl.control.Start();
-  impl.Housekeep();
-  impl.service.OnLocalModelSession([&impl] { impl.StartModelFeed(); });
+  impl.Housekeep(false);
+  impl.service.OnSessionOpened([&impl](bool local_model) { impl.SessionOpened(local_model); });
   impl.service.OnSceneMoving([&impl] { impl.StartKinematics(); });
   if (impl.service.scene_moving()) impl.StartKinematics();
   Log(LogLevel::kInfo, "serving {} ({} objects, up to {} sessions)", EndpointsJson(),

@@ -402,7 +402,7 @@ v1::Reply ControlService::OpenSession(const v1::OpenSession& open, const Connect
   slot.state.store(SlotState::kWaiting, std::memory_order_release);
   sessions_.Ring();  // the realtime thread may be asleep without a timeout
   ++sessions_opened_;
-  if (local_model && on_local_model_session_) on_local_model_session_();
+  if (on_session_opened_) on_session_opened_(local_model);
   Log(LogLevel::kInfo, "session {} opened: {} {} avatar, {}, {} Hz, max force {} N{}{}{}", SessionName(id),
       force::DeviceModeName(settings.device.mode), force::AvatarTypeName(settings.avatar.type),
       force::ForceMethodName(settings.avatar.method), settings.device.rate_hz, settings.device.max_force,
@@ -451,12 +451,14 @@ void ControlService::ConnectionClosed(uint64_t connection_id) {
   }
 }
 
-void ControlService::ReclaimSessions() {
+bool ControlService::ReclaimSessions() {
   const int64_t now_ns = MonotonicNowNs();
+  bool in_use = false;
   // slots past used_slots() were never opened: nothing there to hand back
   for (int i = 0; i < sessions_.used_slots(); ++i) {
     SessionSlot& slot = sessions_.slot(i);
     const SlotState state = slot.state.load(std::memory_order_acquire);
+    in_use = in_use || IsLive(state);
     if (state != SlotState::kClosed && state != SlotState::kTimedOut) continue;
     const SessionTelemetrySample last = slot.published.Read();
     if (state == SlotState::kClosed) {
@@ -478,6 +480,7 @@ void ControlService::ReclaimSessions() {
          (now_ns - ended_.front().ended_ns > kEndedVisibleNs || ended_.size() > kMaxEndedListed)) {
     ended_.pop_front();
   }
+  return in_use;
 }
 
 v1::Reply ControlService::RayCast(const v1::RayCast& ray) {

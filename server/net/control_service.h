@@ -77,8 +77,9 @@ class ControlService {
   // A telemetry sample for subscription, now.
   v1::Telemetry BuildTelemetry(const Subscription& subscription);
   // Frees the slots of sessions the realtime thread handed back (closed or timed out),
-  // logging each. Call often (each request and from a timer).
-  void ReclaimSessions();
+  // logging each. Call often (each request and from a timer). Returns whether a session
+  // is still live.
+  bool ReclaimSessions();
   // The connection closed: its sessions live on, closable from now on only with their key.
   void ConnectionClosed(uint64_t connection_id);
   // Moves kinematic objects by their velocities over dt (s) and publishes the scene when
@@ -89,9 +90,10 @@ class ControlService {
   // start() is called after each edit that leaves the scene moving (the server starts its
   // kinematics timer, if it is not running).
   void OnSceneMoving(std::function<void()> start) { on_scene_moving_ = std::move(start); }
-  // start() is called when a local-model session opens (the server starts feeding models,
-  // if it is not already).
-  void OnLocalModelSession(std::function<void()> start) { on_local_model_session_ = std::move(start); }
+  // opened(local_model) is called after each session opens (the server's timers for
+  // live sessions start: housekeeping at its fast pace, the model feed for a local-model
+  // session).
+  void OnSessionOpened(std::function<void(bool local_model)> opened) { on_session_opened_ = std::move(opened); }
 
   const ServiceOptions& options() const { return options_; }
   // Control thread only: the transport counts its connections here.
@@ -114,7 +116,7 @@ class ControlService {
 
   scene::SceneBuilder builder_;
   std::function<void()> on_scene_moving_;
-  std::function<void()> on_local_model_session_;
+  std::function<void(bool)> on_session_opened_;
   scene::SnapshotPublisher& publisher_;
   SessionTable& sessions_;
   const RealtimeCounters& realtime_;
