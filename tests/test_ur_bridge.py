@@ -351,7 +351,10 @@ def test_a_dropped_rtde_connection_stops_the_arm(sim, wall_server):
     bridge, _ = moving_sideways(sim, wall_server)
     sim.ask(cmd="fault", kind="drop_connections")
     summary = finish(bridge)
-    # the data stops advancing (or the script, its input gone, stops): stopped either way
-    assert summary["exit_reason"] in ("robot_stale", "control_script_stopped"), summary
+    # the data stops advancing, or the script, its input gone, stops, or ur_rtde raises
+    # as its connection goes (it may try to reconnect first: "open: Already open"):
+    # stopped in each case, for a documented reason
+    assert summary["exit_reason"] in ("robot_stale", "control_script_stopped") or (
+        summary["exit_reason"] == "error" and summary["error"].startswith("RuntimeError: ")), summary
     time.sleep(0.3)
     assert sim.state()["speed_norm"] < 1e-3
