@@ -453,12 +453,12 @@ void ControlService::ConnectionClosed(uint64_t connection_id) {
 
 bool ControlService::ReclaimSessions() {
   const int64_t now_ns = MonotonicNowNs();
-  bool in_use = false;
+  bool any_live = false;
   // slots past used_slots() were never opened: nothing there to hand back
   for (int i = 0; i < sessions_.used_slots(); ++i) {
     SessionSlot& slot = sessions_.slot(i);
     const SlotState state = slot.state.load(std::memory_order_acquire);
-    in_use = in_use || IsLive(state);
+    any_live = any_live || IsLive(state);
     if (state != SlotState::kClosed && state != SlotState::kTimedOut) continue;
     const SessionTelemetrySample last = slot.published.Read();
     if (state == SlotState::kClosed) {
@@ -480,7 +480,7 @@ bool ControlService::ReclaimSessions() {
          (now_ns - ended_.front().ended_ns > kEndedVisibleNs || ended_.size() > kMaxEndedListed)) {
     ended_.pop_front();
   }
-  return in_use;
+  return any_live;
 }
 
 v1::Reply ControlService::RayCast(const v1::RayCast& ray) {
