@@ -42,6 +42,9 @@ class Listener:
     def _run(self, conn: socket.socket, address: tuple) -> None:
         try:
             self._handler(conn, address)
+        except ConnectionError as exc:  # the client went away mid-exchange, as clients may
+            log.info("%s connection from %s ended: %s", self.name, address, exc)
+            conn.close()
         except Exception:  # a handler bug must not take the simulator down
             log.exception("%s connection from %s failed", self.name, address)
             conn.close()

@@ -413,6 +413,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         return 130
     print(json.dumps(_strict_json(result), allow_nan=False))
+    ur_bridge.exit_if_robot_link_abandoned(0)
     return 0
 
 

@@ -27,9 +27,11 @@ robot's RTDE data goes stale (its timestamp stops advancing for stale_s, 20 ms; 
 alone notices after 2.5 s), on a protective or emergency stop (reported; the bridge does
 not resume, a person clears the robot and starts it again), when the control script
 stops, when the Modbus sensor or enable input gives no reading for modbus_stale_s (50 ms),
-and at the end (seconds, SIGINT, SIGTERM); an error from ur_rtde in the loop (the
-connection gone) stops it too, and the JSON line says so. The control script's own watchdog
-stops the arm if the bridge itself dies (no command for 1/watchdog_hz, 0.1 s by default:
+and at the end (seconds, SIGINT, SIGTERM); an error from ur_rtde in the loop stops it
+too, and the JSON line says so. When the robot closes an RTDE connection
+(robot_disconnected, seen by the kernel before ur_rtde notices: ur_link.py) nothing more
+is sent, since ur_rtde's own reconnect would race any call; the script's watchdog stops
+the arm, as it does if the bridge itself dies (no command for 1/watchdog_hz, 0.1 s by default:
 meanwhile the arm goes no further than its last target, which the speed cap keeps within
 max_speed times the lookahead of where it is, 7.5 mm by default). It refuses to start
 when the robot cannot be servoed, saying what to do.
@@ -39,7 +41,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -52,6 +56,7 @@ from hapticd.client import Client
 from hapticd.device import DeviceSession
 from hapticd.errors import ConnectionClosed, HapticdError, LocalError, SessionEnded
 from hapticd.ur_force import ForceFilter, ForceFilterSettings
+from hapticd.ur_link import RTDE_PORT, RtdeLinkWatch
 from hapticd.ur_modbus import ROBOTIQ_FT300, EnableInput, ModbusForceSource, Poller, RegisterMap
 from hapticd.ur_motion import BasePose, MotionLimiter, Workspace
 
@@ -149,6 +154,28 @@ def _robot_ready(receive: Any, rate_hz: float, dashboard: Any) -> None:
         )
 
 
+# ur_rtde 1.6.5's control interface reconnects from its own receive thread when its
+# connection goes, and that reconnect races everything else that touches the interface:
+# a call from the bridge, the destructor's disconnect, even the old receive thread, which
+# keeps running beside the new one and reconnects again on every pass. A race there ends
+# in a segmentation fault. So once a connection has gone, the bridge never calls either
+# interface again, keeps both alive here, and leaves with os._exit: no destructor runs.
+_abandoned_robot_links: list[Any] = []
+
+
+def _abandon_robot_link(*interfaces: Any) -> None:
+    _abandoned_robot_links.extend(i for i in interfaces if i is not None)
+
+
+def exit_if_robot_link_abandoned(status: int) -> None:
+    """Ends the process now (os._exit(status), output flushed) if a bridge lost its robot
+    connection: ur_rtde's destructors would race its own reconnect."""
+    if _abandoned_robot_links:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+
+
 def _rotation_of(rotvec: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
     """The matrix of a rotation vector (UR's rx, ry, rz: axis times angle)."""
     angle = float(np.linalg.norm(rotvec))
@@ -183,6 +210,8 @@ class UrBridge:
         self._sensor_bias = np.zeros(3)
         self.error = ""
         self._device: DeviceSession | None = None
+        self._robot_link_lost = False
+        self._link: RtdeLinkWatch | None = None
 
     def connect(self) -> None:
         """Reaches the robot and the Modbus devices, checks the robot can be servoed,
@@ -225,6 +254,12 @@ class UrBridge:
         # the loop needs no kickWatchdog, whose own write of that register would replace
         # a servoL before the script read it
         self._control.setWatchdog(o.watchdog_hz)
+        self._link = RtdeLinkWatch(robot)
+        if self._link.watched != 2:
+            raise HapticdError(
+                f"found {self._link.watched} RTDE connections to {robot}:{RTDE_PORT}, not "
+                "the 2 the receive and control interfaces opened: cannot watch them"
+            )
         if o.force_source == "rtde":
             self._control.zeroFtSensor()
 
@@ -247,15 +282,26 @@ class UrBridge:
             return np.zeros(3)
         return np.asarray(self._in_base(self._sensor_bias, rotation))
 
+    def _link_lost(self) -> bool:
+        """Whether either RTDE connection has gone; once true, the control interface is
+        never called again (see _abandon_robot_link)."""
+        if not self._robot_link_lost:
+            closed = self._link is not None and self._link.lost()
+            both_up = self._receive.isConnected() and self._control.isConnected()
+            self._robot_link_lost = closed or not both_up
+        return self._robot_link_lost
+
     def _stop(self, reason: str, noticed_ns: int) -> None:
         """servoStop, recorded; an arm already stopped by the controller (a protective
-        stop) refuses it, which is fine."""
+        stop) refuses it, which is fine. With the connection gone nothing can be sent:
+        the control script's watchdog stops the arm, and stopped_ns stays 0."""
         event = StopEvent(reason, noticed_ns)
-        try:
-            self._control.servoStop(self.options.stop_decel)
-        except RuntimeError:
-            pass
-        event.stopped_ns = time.monotonic_ns()
+        if not self._link_lost():
+            try:
+                self._control.servoStop(self.options.stop_decel)
+            except RuntimeError:
+                self._robot_link_lost = True
+            event.stopped_ns = time.monotonic_ns()
         self.stops.append(event)
 
     def _robot_fault(self) -> str:
@@ -280,6 +326,7 @@ class UrBridge:
         except (RuntimeError, HapticdError) as exc:
             # ur_rtde raises RuntimeError when its connection goes; nothing else should
             self.error = f"{type(exc).__name__}: {exc}"
+            self._robot_link_lost |= isinstance(exc, RuntimeError)
             return self._finish("error", time.monotonic_ns())
 
     def _servo(self, stop: threading.Event) -> str:
@@ -318,6 +365,8 @@ class UrBridge:
                 return self._finish("signal", read_ns)
             if read_ns >= end_ns:
                 return self._finish("seconds", read_ns)
+            if self._link_lost():
+                return self._finish("robot_disconnected", read_ns)
             timestamp = float(self._receive.getTimestamp())
             if timestamp != last_timestamp:
                 last_timestamp, timestamp_changed_ns = timestamp, read_ns
@@ -368,6 +417,8 @@ class UrBridge:
             step_s = min((read_ns - last_step_ns) * 1e-9, period) if self.ticks else period
             last_step_ns = read_ns
             position = limiter.step(goal, max(step_s, 1e-6))
+            if self._link_lost():  # it may have gone during the exchange
+                return self._finish("robot_disconnected", time.monotonic_ns())
             self._control.servoL(
                 [*position.tolist(), *orientation], 0.0, 0.0, period, o.lookahead_s, o.gain
             )
@@ -404,17 +455,22 @@ class UrBridge:
                 self._device.close()
             except HapticdError:
                 pass  # the server is gone: nothing to close there
-        if self._control is not None:
-            try:
-                self._control.stopScript()
-                self._control.disconnect()
-            except RuntimeError:
-                pass
-        if self._receive is not None:
-            try:
-                self._receive.disconnect()
-            except RuntimeError:
-                pass
+        if self._robot_link_lost:
+            _abandon_robot_link(self._control, self._receive)
+        else:
+            if self._link is not None:
+                self._link.close()
+            if self._control is not None:
+                try:
+                    self._control.stopScript()
+                    self._control.disconnect()
+                except RuntimeError:
+                    pass
+            if self._receive is not None:
+                try:
+                    self._receive.disconnect()
+                except RuntimeError:
+                    pass
         for poller in (self._force_poll, self._enable_poll):
             if poller is not None:
                 poller.close()
@@ -459,9 +515,21 @@ class UrBridge:
         }
 
 
+def _stdout_for_the_summary_only() -> None:
+    """Sends whatever else writes to file descriptor 1 to stderr; sys.stdout keeps the
+    real stdout. ur_rtde prints to std::cout from its own threads ("Reconnecting..."),
+    at any time, even into the middle of the JSON line."""
+    sys.stdout.flush()
+    real_stdout = os.dup(1)
+    os.dup2(2, 1)
+    sys.stdout = os.fdopen(real_stdout, "w", encoding="utf-8")
+
+
 def run_bridge(options: BridgeOptions, client: Client) -> dict[str, Any]:
     """Connects, servos until the end, stops; the summary. SIGINT and SIGTERM end the
-    run (the arm stopped) instead of killing it."""
+    run (the arm stopped) instead of killing it. From the call on, only sys.stdout
+    writes to the process's stdout (see _stdout_for_the_summary_only)."""
+    _stdout_for_the_summary_only()
     stop = threading.Event()
     previous: dict[signal.Signals, Any] = {}
 
