@@ -111,7 +111,7 @@ class BridgeOptions:
 @dataclass
 class StopEvent:
     """Why the arm was stopped, when the bridge noticed and when servoStop returned
-    (time.monotonic_ns)."""
+    (time.monotonic_ns; stopped_ns 0: none sent, the robot's connection gone)."""
 
     reason: str
     noticed_ns: int
