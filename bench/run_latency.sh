@@ -117,9 +117,10 @@ proxy() {
   echo "{\"phase\": \"$phase\", \"block\": $block, \"peer_cpu_s\": $(awk -v a="$after" -v b="$before" 'BEGIN { printf "%.4f", a - b }'), \"peer_main_cpu_s\": $(awk -v a="$main_after" -v b="$main_before" 'BEGIN { printf "%.4f", a - b }'), \"result\": $line}" >>"$runs"
 }
 
-# 0. both idle (no session, no client): the CPU each uses a second while waiting
+# 0. both idle (no session, no client): the CPU each uses a second while waiting (over
+# 20 s: idle, hapticd's housekeeping wakes every 5 s)
 echo "run_latency: idle" >&2
-idle_seconds=3
+idle_seconds=20
 hapticd_before="$(cpu_seconds "$hapticd_pid")"
 echo_before="$(cpu_seconds "$echo_pid")"
 sleep "$idle_seconds"

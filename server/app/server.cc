@@ -137,10 +137,11 @@ struct Server::Impl {
   }
 
   // Every 50 ms while a session lives: hand back finished sessions' slots (each request
-  // does too); with none, every second (opening one brings the fast pace back). Every
-  // 5 s: report the realtime thread's drop counters when they grew (it cannot log itself).
+  // does too); with none, every 5 s, the drop report's own pace (opening one brings the
+  // fast pace back). At most every 5 s: report the realtime thread's drop counters when
+  // they grew (it cannot log itself).
   void Housekeep(bool sessions_live) {
-    housekeeping.expires_after(sessions_live ? 50ms : 1s);
+    housekeeping.expires_after(sessions_live ? 50ms : 5s);
     housekeeping.async_wait([this](std::error_code error) {
       if (error || stopping) return;
       const bool live = service.ReclaimSessions();
