@@ -286,10 +286,13 @@ class UrBridge:
         """Whether either RTDE connection has gone; once true, the control interface is
         never called again (see _abandon_robot_link)."""
         if not self._robot_link_lost:
+            # the socket first: once it shows the loss, not even isConnected is called
             closed = self._link is not None and self._link.lost()
-            both_up = self._receive.isConnected() and self._control.isConnected()
-            self._robot_link_lost = closed or not both_up
+            self._robot_link_lost = closed or not self._both_connected()
         return self._robot_link_lost
+
+    def _both_connected(self) -> bool:
+        return bool(self._receive.isConnected() and self._control.isConnected())
 
     def _stop(self, reason: str, noticed_ns: int) -> None:
         """servoStop, recorded; an arm already stopped by the controller (a protective
