@@ -13,6 +13,8 @@
 // timed the same way in the same blocks. It does no memory work at all, so its tail is
 // what this machine alone adds at that duration (interrupts, preemption, the
 // hypervisor): on a shared 2-core machine a 25 us loop's p99.9 is far above its p50.
+// After the table, a probe of those interruptions: how often and how long (see
+// ProbeInterruptions).
 //
 //   render_tick_percentiles [--ticks N] [--quick] [--triangles N] [--method NAME] [--gathered-only]
 //     -> a Markdown table on stdout (--triangles, --method: only that object (0 for the
@@ -23,6 +25,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <iterator>
 #include <memory>
 #include <random>
 #include <utility>
@@ -137,6 +140,41 @@ class BaselineLoop {
   double value_ = 1;
   std::vector<double> samples_;
 };
+
+// The machine's own interruptions: a thread that does nothing but read the steady clock
+// sees each one as a gap between two readings (a reading costs about 20 ns, so a gap of
+// 2 us or more is time taken from it: a timer or device interrupt, the hypervisor,
+// another thread). Their rate says how often a tick of a given length meets one: a tick
+// of T us is interrupted in about rate * T of its runs, so where that exceeds 0.1% the
+// tick's p99.9 holds an interruption, whatever the tick itself does.
+struct Interruptions {
+  static constexpr double kAtLeastUs[] = {2, 10, 20, 40, 80};
+  double seconds = 0;
+  double per_second[std::size(kAtLeastUs)] = {};  // gaps of at least kAtLeastUs[i]
+  double max_us = 0;
+};
+
+Interruptions ProbeInterruptions(double seconds) {
+  constexpr double kGapUs = 2;
+  std::vector<double> gaps;
+  const auto begin = std::chrono::steady_clock::now();
+  auto last = begin;
+  for (;;) {
+    const auto now = std::chrono::steady_clock::now();
+    const double gap = std::chrono::duration<double, std::micro>(now - last).count();
+    if (gap >= kGapUs) gaps.push_back(gap);
+    last = now;
+    if (now - begin >= std::chrono::duration<double>(seconds)) break;
+  }
+  Interruptions result;
+  result.seconds = std::chrono::duration<double>(last - begin).count();
+  for (size_t i = 0; i < std::size(Interruptions::kAtLeastUs); ++i) {
+    const auto count = std::count_if(gaps.begin(), gaps.end(), [&](double g) { return g >= Interruptions::kAtLeastUs[i]; });
+    result.per_second[i] = static_cast<double>(count) / result.seconds;
+  }
+  for (double g : gaps) result.max_us = std::max(result.max_us, g);
+  return result;
+}
 
 // One session sliding around the object, ticked in blocks (so that two sessions can
 // take turns in one run) and timed tick by tick.
@@ -304,5 +342,17 @@ int main(int argc, char** argv) {
       if (!gathered_only) row(target, m, "direct (before)", direct, false);
     }
   }
+  // the machine's interruptions, after the ticks (the same machine, moments apart)
+  const Interruptions probe = ProbeInterruptions(quick ? 1 : 5);
+  std::printf("\nInterruptions seen by a thread that only reads the steady clock, over %.0f s: gaps between two "
+              "readings of at least", probe.seconds);
+  for (size_t i = 0; i < std::size(Interruptions::kAtLeastUs); ++i) {
+    std::printf("%s %.0f µs: %.0f a second", i ? ";" : "", Interruptions::kAtLeastUs[i], probe.per_second[i]);
+  }
+  std::printf(" (longest %.0f µs). A tick of T µs meets a gap of at least G µs in about T x (G's rate) / 10^6 of its "
+              "runs; where that share exceeds 0.1%%, the tick's p99.9 is at least T + G whatever the tick does, and more "
+              "where the interruption evicts the tick's memory and the tick must fetch it again (the baseline loop has "
+              "none to fetch).\n",
+              probe.max_us);
   return 0;
 }

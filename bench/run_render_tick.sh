@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Measures the per-tick time of the rendering pipeline (p50, p99, p99.9) and writes
+# Measures the per-tick time of the rendering pipeline (p50, p99, p99.9), and how often
+# and how long the machine itself interrupts a busy thread, and writes
 # bench/results/render_tick.md with the machine and the date.
 #   bench/run_render_tick.sh [--ticks N]
 set -euo pipefail

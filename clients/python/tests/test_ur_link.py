@@ -1,6 +1,7 @@
-"""RtdeLinkWatch against real TCP connections on loopback: it finds this process's
-connections to the port, and says lost once the far side shuts or resets one, also after
-the near side's own descriptor is closed (as ur_rtde does before it reconnects)."""
+"""RtdeLinkWatch against real TCP connections on loopback, IPv4 and IPv6: it finds this
+process's connections to the port, and says lost once the far side shuts or resets one,
+also after the near side's own descriptor is closed (as ur_rtde does before it
+reconnects)."""
 
 from __future__ import annotations
 
@@ -14,20 +15,24 @@ import pytest
 from hapticd.ur_link import RtdeLinkWatch
 
 
-@pytest.fixture
-def robot():
-    """A listener on loopback (the robot's port) and the connections made to it: the
-    client sockets and the accepted ones, in pairs."""
-    listener = socket.create_server(("127.0.0.1", 0))
+@pytest.fixture(params=["127.0.0.1", "::1"])
+def robot(request):
+    """A listener on loopback (the robot's host and port; IPv4 and IPv6, each parsed from
+    its own /proc table) and the connections made to it: the client sockets and the
+    accepted ones, in pairs."""
+    host = request.param
+    listener = socket.create_server(
+        (host, 0), family=socket.AF_INET6 if ":" in host else socket.AF_INET
+    )
     pairs: list[tuple[socket.socket, socket.socket]] = []
 
     def connect() -> tuple[socket.socket, socket.socket]:
-        client = socket.create_connection(listener.getsockname())
+        client = socket.create_connection((host, listener.getsockname()[1]))
         accepted, _ = listener.accept()
         pairs.append((client, accepted))
         return client, accepted
 
-    yield listener.getsockname()[1], connect
+    yield host, listener.getsockname()[1], connect
     for pair in pairs:
         for sock in pair:
             sock.close()
@@ -44,12 +49,12 @@ def lost_within(watch: RtdeLinkWatch, seconds: float = 2.0) -> bool:
 
 
 def test_it_watches_each_connection_to_the_port_once(robot):
-    port, connect = robot
+    host, port, connect = robot
     client, _ = connect()
     connect()
     extra = socket.socket(fileno=os.dup(client.fileno()))  # a second descriptor
     other = socket.create_server(("127.0.0.1", 0))  # a socket not connected to the port
-    watch = RtdeLinkWatch("127.0.0.1", port)
+    watch = RtdeLinkWatch(host, port)
     try:
         assert watch.watched == 2
         assert not watch.lost()
@@ -60,10 +65,10 @@ def test_it_watches_each_connection_to_the_port_once(robot):
 
 
 def test_the_far_side_closing_one_connection_is_lost_for_good(robot):
-    port, connect = robot
+    host, port, connect = robot
     client, accepted = connect()
     connect()
-    watch = RtdeLinkWatch("127.0.0.1", port)
+    watch = RtdeLinkWatch(host, port)
     try:
         accepted.sendall(b"state")  # data waiting is not a loss
         time.sleep(0.05)
@@ -78,9 +83,9 @@ def test_the_far_side_closing_one_connection_is_lost_for_good(robot):
 
 
 def test_a_reset_connection_is_lost(robot):
-    port, connect = robot
+    host, port, connect = robot
     _, accepted = connect()
-    watch = RtdeLinkWatch("127.0.0.1", port)
+    watch = RtdeLinkWatch(host, port)
     try:
         accepted.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack("ii", 1, 0))
         accepted.close()  # RST
@@ -90,7 +95,27 @@ def test_a_reset_connection_is_lost(robot):
 
 
 def test_no_connection_to_the_port_watches_nothing(robot):
-    port, _ = robot
-    watch = RtdeLinkWatch("127.0.0.1", port)
+    host, port, _ = robot
+    watch = RtdeLinkWatch(host, port)
     assert watch.watched == 0 and not watch.lost()
     watch.close()
+
+
+def test_an_ipv4_robot_reached_through_an_ipv6_socket_is_watched():
+    """A dual-stack client socket connected to an IPv4 robot shows in /proc's tcp6
+    table with the IPv4-mapped address (::ffff:127.0.0.1)."""
+    listener = socket.create_server(("127.0.0.1", 0))
+    port = listener.getsockname()[1]
+    client = socket.socket(socket.AF_INET6, socket.SOCK_STREAM)
+    client.connect(("::ffff:127.0.0.1", port))
+    accepted, _ = listener.accept()
+    watch = RtdeLinkWatch("127.0.0.1", port)
+    try:
+        assert watch.watched == 1
+        assert not watch.lost()
+        accepted.close()
+        assert lost_within(watch)
+    finally:
+        watch.close()
+        client.close()
+        listener.close()
