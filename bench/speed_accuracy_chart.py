@@ -9,9 +9,11 @@ exact path is at or ahead of every peer at equal accuracy.
 
     python bench/speed_accuracy_chart.py WORK_DIR [--results bench/results] [--machine TEXT]
 
-Peers' times are shown net of their binding overhead (``overhead_ns``: what the same
-Python call costs on a trivial pair), the fairer number for the libraries themselves;
-their raw time is the end of the thin line to the right of each peer marker.
+Times are shown net of ``overhead_ns``, what the same call costs on a trivial input: the
+peers' Python call on their cheapest pair (distances) or on rays that miss Embree's root
+box (embreex), and hapticd's first hits on segments that miss their first box, so that
+both sides' first hits are net of the same fixed cost per call. The raw time is the end
+of the thin line to the right of such a marker.
 """
 
 from __future__ import annotations
@@ -117,7 +119,7 @@ def plot(rows: list[Row], path: Path, machine: str) -> None:
         axis.set_xscale("log")
         axis.set_yscale("log")
         axis.set_title(title)
-        axis.set_xlabel("time per query, ns (peers: net of binding overhead)")
+        axis.set_xlabel("time per query, ns (net of a trivial call; thin line: raw)")
         axis.set_ylabel("largest error vs analytic truth")
         axis.grid(True, which="major", alpha=0.3)
     # the surfaces, told apart by fill and line

@@ -39,7 +39,7 @@ struct ResultRow {
   int reps = 0;                // timed repetitions of the batch
   double time_ns = 0;          // median over reps of the batch time / queries
   double time_ns_min = 0;      // fastest rep
-  double overhead_ns = 0;      // per-call binding overhead (Python peers); 0 here
+  double overhead_ns = 0;      // the same call on a trivial input (first hit: segments that miss)
   std::string error_unit;      // m or N
   ErrorStats error;
   std::string note;

@@ -12,7 +12,10 @@ for the errors, then repetitions of a batch (all inputs, or as many as a 0.5 s b
 allows), median per query. Python calls cost a binding overhead the C++ rows do not
 pay: ``overhead_ns`` gives it (coal, python-fcl: the same call on their cheapest pair,
 a point against a small sphere 1 m away; embreex: the same batch of rays 10 m away
-from the mesh), so that the chart can show the time net of it.
+from the mesh, which also takes Embree's own cost of a ray that misses its root box),
+so that the chart can show the time net of it. hapticd's first-hit rows carry the same
+measure of their own (segments that miss at their first box), so that first hits are
+compared net of it on both sides.
 
 The peers come from PyPI, pinned, in a benchmark-only virtual environment
 (bench/.venv-peers) that this script creates on first use and then re-runs itself in.

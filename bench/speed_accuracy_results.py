@@ -38,7 +38,7 @@ class Row:
 
     @property
     def net_time_ns(self) -> float:
-        """Time per query less the binding's overhead (peers), never below 1 ns."""
+        """Time per query less its trivial call (overhead_ns), never below 1 ns."""
         return max(self.time_ns - self.overhead_ns, 1.0)
 
     @property
