@@ -341,8 +341,8 @@ class Reading:
             "",
             AIM_EQUAL_ACCURACY,
             "",
-            "| query | surface | peer | peer net | peer error | hapticd fastest as accurate, net (raw) "
-            "| its error | hapticd / peer | verdict |",
+            "| query | surface | peer | peer net | peer error "
+            "| hapticd fastest as accurate, net (raw) | its error | hapticd / peer | verdict |",
             "|---|---|---|---|---|---|---|---|---|",
         ]
         behind = 0
@@ -352,7 +352,12 @@ class Reading:
             )
             if ours is None:
                 behind += 1
-                verdict, ours_text, error_text, ratio_text = "**behind** (none as accurate)", "-", "-", "-"
+                verdict, ours_text, error_text, ratio_text = (
+                    "**behind** (none as accurate)",
+                    "-",
+                    "-",
+                    "-",
+                )
             else:
                 ratio = ours.net_time_ns / peer.net_time_ns
                 behind += ratio > 1.0
