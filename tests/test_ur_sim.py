@@ -48,11 +48,13 @@ def _servo_for(control, target, seconds: float, lookahead: float = 0.1, kick: bo
     return cycles
 
 
-def _force_becomes(receive, expected, timeout_s: float = 5.0) -> None:
-    """Until the receive interface reads expected (a loaded machine delays the data)."""
+def _reading_becomes(read, expected, tolerance: float, timeout_s: float = 5.0) -> None:
+    """Until read() (a receive interface's getter) returns expected within tolerance: the
+    receive interface's data trail the simulator by a period or more (more on a loaded
+    machine), so a reading right after the simulator changed can still be the old one."""
     deadline = time.monotonic() + timeout_s
-    while receive.getActualTCPForce() != pytest.approx(expected, abs=1e-9):
-        assert time.monotonic() < deadline, (receive.getActualTCPForce(), expected)
+    while read() != pytest.approx(expected, abs=tolerance):
+        assert time.monotonic() < deadline, (read(), expected)
         time.sleep(0.01)
 
 
@@ -282,7 +284,7 @@ def test_servoL_trails_its_target_converges_and_never_exceeds_the_speed_cap():
             sim.wait_for(
                 lambda s: abs(s["pose"][0] - target[0]) < 1e-4, timeout_s=3, what="convergence"
             )
-            assert receive.getActualTCPPose()[:3] == pytest.approx(target[:3], abs=1e-4)
+            _reading_becomes(lambda: receive.getActualTCPPose()[:3], target[:3], 1e-4)
             rows = _rows_after(sim.ctl(cmd="trace", since_host_time=started), started)
             moving = [r for r in rows if r["target"] is not None]
             # controller time, so load on this machine does not matter: 5 cm at 0.2 m/s
@@ -350,12 +352,12 @@ def test_zeroFtSensor_zeroes_the_persons_force_like_the_real_one():
         receive = rtde_receive.RTDEReceiveInterface(sim.host)
         try:
             assert sim.ctl(cmd="person", force=[0, 0, -20])["ok"]
-            _force_becomes(receive, [0, 0, -20, 0, 0, 0])
+            _reading_becomes(receive.getActualTCPForce, [0, 0, -20, 0, 0, 0], 1e-9)
             assert control.zeroFtSensor()
-            _force_becomes(receive, [0] * 6)
+            _reading_becomes(receive.getActualTCPForce, [0] * 6, 1e-9)
             sim.ctl(cmd="person", force=[5, 0, -20])
             sim.ctl(cmd="fault", kind="jump", bias=[0, 0, 3])
-            _force_becomes(receive, [5, 0, 3, 0, 0, 0])
+            _reading_becomes(receive.getActualTCPForce, [5, 0, 3, 0, 0, 0], 1e-9)
             assert sim.state()["counters"]["zeroFtSensor"] == 1
         finally:
             control.disconnect()
@@ -418,13 +420,13 @@ def test_moveL_speedL_and_stopL_move_and_stop_the_arm():
             target = list(START_POSE)
             target[2] += 0.02
             assert control.moveL(target, 0.25, 1.2)  # synchronous: returns at the target
-            assert receive.getActualTCPPose()[:3] == pytest.approx(target[:3], abs=1e-6)
+            assert sim.state()["pose"][:3] == pytest.approx(target[:3], abs=1e-6)
+            _reading_becomes(lambda: receive.getActualTCPPose()[:3], target[:3], 1e-6)
             assert control.speedL([0.0, 0.05, 0.0, 0.0, 0.0, 0.0], 0.5, 0.0)
             time.sleep(0.3)
             assert receive.getActualTCPSpeed()[1] == pytest.approx(0.05)
             control.stopL(2.0)  # synchronous (returns nothing): the arm is at rest after it
-            time.sleep(0.01)
-            assert receive.getActualTCPSpeed()[:3] == [0.0, 0.0, 0.0]
+            _reading_becomes(lambda: receive.getActualTCPSpeed()[:3], [0.0, 0.0, 0.0], 0.0)
             counters = sim.state()["counters"]
             assert (counters["moveL"], counters["stopL"], counters["unknown_commands"]) == (1, 1, 0)
         finally:
