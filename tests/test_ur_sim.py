@@ -48,6 +48,15 @@ def _servo_for(control, target, seconds: float, lookahead: float = 0.1, kick: bo
     return cycles
 
 
+def _until(condition, what: str, timeout_s: float = 5.0) -> None:
+    """Until condition() holds: what the interfaces read trails the simulator by a period
+    or more (more on a loaded machine)."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.01)
+
+
 def _reading_becomes(read, expected, tolerance: float, timeout_s: float = 5.0) -> None:
     """Until read() (a receive interface's getter) returns expected within tolerance: the
     receive interface's data trail the simulator by a period or more (more on a loaded
@@ -453,8 +462,10 @@ def test_io_interface_upper_registers_and_inputs_in_use():
             assert sim.state()["watchdog"] == ["input_int_register_24", 20.0]
             assert io.setStandardDigitalOut(2, True)
             sim.wait_for(lambda s: s["digital_outputs"] == 4, what="digital output 2")
-            time.sleep(0.02)
-            assert receive.getDigitalOutState(2) and receive.getActualDigitalOutputBits() == 4
+            _until(
+                lambda: receive.getDigitalOutState(2) and receive.getActualDigitalOutputBits() == 4,
+                "digital output 2 through the receive interface",
+            )
             # a second control interface asks for the same input registers
             with pytest.raises(RuntimeError, match="already in use"):
                 rtde_control.RTDEControlInterface(sim.host, 500.0, flags)
@@ -474,8 +485,10 @@ def test_protective_stop_stops_the_arm_until_the_dashboard_unlocks_it():
             _servo_for(control, target, 0.2)
             assert sim.ctl(cmd="fault", kind="protective_stop")["ok"]
             sim.wait_for(lambda s: s["at_rest"], timeout_s=0.5, what="the arm at rest")
-            time.sleep(0.02)
-            assert receive.isProtectiveStopped() and not control.isProgramRunning()
+            _until(
+                lambda: receive.isProtectiveStopped() and not control.isProgramRunning(),
+                "the protective stop through both interfaces",
+            )
             assert receive.getSafetyMode() == 3 and receive.getSafetyStatusBits() & 0b100
             assert not control.servoL(target, 0.5, 0.5, 0.002, 0.1, 300)
             assert sim.dashboard("safetystatus", "unlock protective stop") == [
@@ -489,13 +502,15 @@ def test_protective_stop_stops_the_arm_until_the_dashboard_unlocks_it():
             dashboard.connect()
             dashboard.unlockProtectiveStop()  # raises unless "Protective stop releasing"
             dashboard.disconnect()
-            time.sleep(0.02)
-            assert not receive.isProtectiveStopped() and receive.getSafetyMode() == 1
+            _until(
+                lambda: not receive.isProtectiveStopped() and receive.getSafetyMode() == 1,
+                "the unlock through the receive interface",
+            )
             # reuploadScript returns once the script is sent; the program starts a period later
             assert control.reuploadScript()
             sim.wait_for(lambda s: s["runtime_state_name"] == "PLAYING", what="the program")
-            time.sleep(0.02)
-            assert control.isProgramRunning() and control.servoL(target, 0.5, 0.5, 0.002, 0.1, 300)
+            _until(control.isProgramRunning, "the program through the control interface")
+            assert control.servoL(target, 0.5, 0.5, 0.002, 0.1, 300)
         finally:
             control.disconnect()
             receive.disconnect()
@@ -506,8 +521,10 @@ def test_emergency_stop_powers_off_until_released_powered_and_braked():
         receive = rtde_receive.RTDEReceiveInterface(sim.host)
         try:
             sim.ctl(cmd="fault", kind="emergency_stop")
-            time.sleep(0.02)
-            assert receive.isEmergencyStopped() and receive.getSafetyMode() == 7
+            _until(
+                lambda: receive.isEmergencyStopped() and receive.getSafetyMode() == 7,
+                "the emergency stop through the receive interface",
+            )
             assert sim.dashboard("robotmode", "power on", "robotmode") == [
                 "Robotmode: POWER_OFF",
                 "Powering on",
