@@ -155,24 +155,20 @@ struct Interruptions {
 };
 
 Interruptions ProbeInterruptions(double seconds) {
-  constexpr double kGapUs = 2;
-  std::vector<double> gaps;
+  Interruptions result;
+  int64_t counts[std::size(Interruptions::kAtLeastUs)] = {};
   const auto begin = std::chrono::steady_clock::now();
   auto last = begin;
   for (;;) {
     const auto now = std::chrono::steady_clock::now();
     const double gap = std::chrono::duration<double, std::micro>(now - last).count();
-    if (gap >= kGapUs) gaps.push_back(gap);
+    for (size_t i = 0; i < std::size(counts) && gap >= Interruptions::kAtLeastUs[i]; ++i) ++counts[i];
+    result.max_us = std::max(result.max_us, gap);
     last = now;
     if (now - begin >= std::chrono::duration<double>(seconds)) break;
   }
-  Interruptions result;
   result.seconds = std::chrono::duration<double>(last - begin).count();
-  for (size_t i = 0; i < std::size(Interruptions::kAtLeastUs); ++i) {
-    const auto count = std::count_if(gaps.begin(), gaps.end(), [&](double g) { return g >= Interruptions::kAtLeastUs[i]; });
-    result.per_second[i] = static_cast<double>(count) / result.seconds;
-  }
-  for (double g : gaps) result.max_us = std::max(result.max_us, g);
+  for (size_t i = 0; i < std::size(counts); ++i) result.per_second[i] = static_cast<double>(counts[i]) / result.seconds;
   return result;
 }
 

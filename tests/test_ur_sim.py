@@ -48,23 +48,24 @@ def _servo_for(control, target, seconds: float, lookahead: float = 0.1, kick: bo
     return cycles
 
 
-def _until(condition, what: str, timeout_s: float = 5.0) -> None:
-    """Until condition() holds: what the interfaces read trails the simulator by a period
-    or more (more on a loaded machine)."""
+def _until(condition, what, timeout_s: float = 5.0) -> None:
+    """Until condition() holds: what ur_rtde's interfaces read trails the simulator by a
+    period or more (more on a loaded machine), so a read right after the simulator changed
+    can still see the old state. what: a text, or a function giving one at the timeout."""
     deadline = time.monotonic() + timeout_s
     while not condition():
-        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        assert time.monotonic() < deadline, "timed out waiting for " + (
+            what() if callable(what) else what
+        )
         time.sleep(0.01)
 
 
-def _reading_becomes(read, expected, tolerance: float, timeout_s: float = 5.0) -> None:
-    """Until read() (a receive interface's getter) returns expected within tolerance: the
-    receive interface's data trail the simulator by a period or more (more on a loaded
-    machine), so a reading right after the simulator changed can still be the old one."""
-    deadline = time.monotonic() + timeout_s
-    while read() != pytest.approx(expected, abs=tolerance):
-        assert time.monotonic() < deadline, (read(), expected)
-        time.sleep(0.01)
+def _reading_becomes(read, expected, tolerance: float) -> None:
+    """Until read() (an interface's getter) returns expected within tolerance."""
+    _until(
+        lambda: read() == pytest.approx(expected, abs=tolerance),
+        lambda: f"{expected} within {tolerance} (last read {read()})",
+    )
 
 
 def _rows_after(trace: dict, host_time: float) -> list[dict]:
