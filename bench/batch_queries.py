@@ -209,7 +209,8 @@ points in the same run.
 A closest point's cost is the server's (the client decodes its reply about three times
 faster than a ray batch's, whose object names are strings), most of it the
 nearest-triangle search of the meshes near the point, which the server probes nearest
-first, each only as far as the nearest surface found so far (query::FindClosestPoints). A ray batch tests each object against all rays at once
+first, each only as far as the nearest surface found so far \
+(query::FindClosestPoints). A ray batch tests each object against all rays at once
 and is cheapest per ray in small batches, where its arrays stay in cache; so the two
 are close at 1,000 points and closest points pull ahead from 10,000.
 """

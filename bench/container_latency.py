@@ -120,7 +120,8 @@ def layers(bin_dir: pathlib.Path, blocks: int, seconds: float, log) -> list[dict
         echo = Process([str(bin_dir / "hapticd-udp-echo")])
         try:
             for block in range(1, blocks + 1):
-                for peer, target in (("hapticd", ["--server", server.start["tcp"]]), ("echo", ["--echo", echo.start["udp"]])):
+                for peer, target in (("hapticd", ["--server", server.start["tcp"]]),
+                                     ("echo", ["--echo", echo.start["udp"]])):
                     report = run_json([str(bin_dir / "hapticd-proxy"), *target, *proxy_args])
                     rows.append({"layer": "loopback", "block": block, "peer": peer, **wire(report),
                                  "lost": report["packets_lost"]})
@@ -137,10 +138,12 @@ def layers(bin_dir: pathlib.Path, blocks: int, seconds: float, log) -> list[dict
             server = Process(exec_in("server", str(bin_dir / "hapticd"), "--host", "10.77.0.2", "--tls-cert",
                                      f"{secrets}/cert.pem", "--tls-key", f"{secrets}/key.pem", "--access-token-file",
                                      f"{secrets}/token", "--log-level", "warning"))
-            echo = Process(exec_in("server", str(bin_dir / "hapticd-udp-echo"), "--host", "10.77.0.2", "--port", "7470"))
+            echo = Process(exec_in("server", str(bin_dir / "hapticd-udp-echo"), "--host", "10.77.0.2",
+                                   "--port", "7470"))
             try:
                 for block in range(1, blocks + 1):
-                    for peer, target in (("hapticd", ["--server", "10.77.0.2:7460", *[a.format(s=secrets) for a in tls]]),
+                    for peer, target in (("hapticd", ["--server", "10.77.0.2:7460",
+                                                      *[a.format(s=secrets) for a in tls]]),
                                          ("echo", ["--echo", "10.77.0.2:7470"])):
                         report = run_json(exec_in("dev1", str(bin_dir / "hapticd-proxy"), *target, *proxy_args))
                         rows.append({"layer": "namespaces (veth, router)", "block": block, "peer": peer,
@@ -438,8 +441,8 @@ def main() -> None:
               "handle went under z = 0; *late*: commands that came after their tick's 500 µs budget (the proxy "
               "renders the newest command that came, late or not; its watchdog holds it 50 ms, then ramps the "
               "force to zero).\n")
-    md.append("| delay ms (each way) | jitter ms | loss | rtt p50 µs | rtt p99 µs | rtt max µs | late | lost | energy J | "
-              "below floor mm | max force N | contacts | watchdog trips |")
+    md.append("| delay ms (each way) | jitter ms | loss | rtt p50 µs | rtt p99 µs | rtt max µs | late | lost | "
+              "energy J | below floor mm | max force N | contacts | watchdog trips |")
     md.append("| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
     for r in udp_rows:
         md.append(f"| {r['delay_ms']} | {r['jitter_ms']} | {r['loss']:.0%} | {r['p50']:.0f} | {r['p99']:.0f} | "
@@ -469,7 +472,8 @@ def main() -> None:
               "sent.\n")
     md.append("| mode | delay ms | jitter ms | loss | rtt p50 µs | lost | energy J | channel J | depth mm | "
               "force error | avatar in mm | max force N | models | up | down |")
-    md.append("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    md.append("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | "
+              "---: | ---: |")
     for r in remote_rows:
         error = "n/a" if r["force_error"] is None else f"{r['force_error']:+.2%}"
         channel = f"{r['channel_energy_j']:+.4f}" if "channel_energy_j" in r else "n/a"

@@ -97,7 +97,7 @@ def compare_section(runs: list[dict[str, Any]]) -> tuple[list[str], float, float
         "| block | p50 hapticd / echo | p99 hapticd / echo |",
         "| ---: | ---: | ---: |",
     ]
-    lines += [f"| {b} | {a:.2f} | {c:.2f} |" for b, a, c in zip(blocks, ratios_p50, ratios_p99)]
+    lines += [f"| {b} | {a:.2f} | {c:.2f} |" for b, a, c in zip(blocks, ratios_p50, ratios_p99, strict=True)]
     p50, p99 = statistics.median(ratios_p50), statistics.median(ratios_p99)
     lines += [f"| median | **{p50:.2f}** | **{p99:.2f}** |", ""]
     return lines, p50, p99
@@ -113,7 +113,9 @@ def cpu_per_datagram_us(side: list[dict[str, Any]], without_main: bool = False) 
 
 def sessions_section(
     runs: list[dict[str, Any]],
-) -> tuple[list[str], int | None, int | None, list[int], dict[int, tuple[float, float]], dict[int, tuple[float, float]]]:
+) -> tuple[
+    list[str], int | None, int | None, list[int], dict[int, tuple[float, float]], dict[int, tuple[float, float]]
+]:
     """The scaling table (medians over blocks); the largest N hapticd held and the largest
     N the echo held, each with every smaller N held too; the Ns at which the proxy itself
     fell behind; hapticd's and the echo's CPU time per datagram (µs) at each N; the
@@ -312,8 +314,9 @@ def main() -> None:
               "N kHz and the proxy's own delays are part of both sides' round trips.")
     ratio_text = ", ".join(f"{ratios[n][0]:.2f} at {n}" for n in sorted(ratios))
     within = [n for n in sorted(ratios) if ratios[n][0] <= CPU_RATIO_AIM]
+    within_text = "N = " + ", ".join(map(str, within)) if within else "no N"
     print(f"- CPU per datagram, hapticd / echo (median of same-block ratios): {ratio_text} (aim ≤ "
-          f"{CPU_RATIO_AIM} at every N the echo holds; within it at {'N = ' + ', '.join(map(str, within)) if within else 'no N'}).")
+          f"{CPU_RATIO_AIM} at every N the echo holds; within it at {within_text}).")
     realtime_text = ", ".join(f"{ratios[n][1]:.2f} at {n}" for n in sorted(ratios))
     print(f"  hapticd's realtime thread alone (its control thread left out) / echo: {realtime_text}.")
     # hapticd's cost at the largest N the generator kept up with (else the smallest N)

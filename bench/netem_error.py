@@ -92,7 +92,8 @@ def main() -> None:
             cell = row[setting]
             late = "-"
             if cell["relay"]:
-                late = f"{cell['relay']['up']['late_ms']['p99'] * 1000:.0f} / {cell['relay']['down']['late_ms']['p99'] * 1000:.0f}"
+                late = (f"{cell['relay']['up']['late_ms']['p99'] * 1000:.0f} / "
+                        f"{cell['relay']['down']['late_ms']['p99'] * 1000:.0f}")
             w = cell["wire"]
             print(f"| {row['block']} | {setting} | {w['p50']:.1f} | {w['p99']:.1f} | {w['p999']:.1f} | "
                   f"{w['max']:.1f} | {cell['lost']} | {late} |")

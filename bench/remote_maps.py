@@ -234,18 +234,18 @@ def build_grid() -> list[tuple]:
     grid = [("edge_mesh", m, p, k, d, 20.0, 0.1, 0.5, 0.0, False) for (m, p), k, d in itertools.product(
         (("local_model", "none"), ("local_model", "tdpa")), (1000, 5000, 30000), (0, 5, 50, 200))]
     grid = [g + (b,) for g in grid]
-    grid += [(s, m, p, k, d, j, l, v, 0.0, False, b) for s, (m, p), k, d, j, l, v in itertools.product(
+    grid += [(s, m, p, k, d, j, loss, v, 0.0, False, b) for s, (m, p), k, d, j, loss, v in itertools.product(
         SCENES, MODES, STIFFNESS_N_PER_M, DELAY_MS, JITTER_MS, LOSS, SPEED_M_PER_S)]
     # the deadband's sweep: 0.1 m/s, no jitter or loss (its deadband 0 is above)
     grid += [(s, m, p, k, d, 0.0, 0.0, 0.1, w, False, b) for s, (m, p), k, d, w in itertools.product(
         ("plate", "edge"), MODES, STIFFNESS_N_PER_M, DEADBAND_DELAY_MS, DEADBANDS)]
     # the local model with the device's own passivity controller (control.passivity),
     # for the stiff walls that a 1 kHz loop makes active even without delay (Colgate)
-    grid += [(s, "local_model", "none", k, d, j, l, v, 0.0, True, b) for s, k, (d, j, l), v in itertools.product(
+    grid += [(s, "local_model", "none", k, d, j, loss, v, 0.0, True, b) for s, k, (d, j, loss), v in itertools.product(
         SCENES, STIFFNESS_N_PER_M, ((0, 0, 0), (50, 20, 0.1), (250, 20, 0.2)), SPEED_M_PER_S)]
     # the same walls with the damping Colgate's condition asks for (1.2 K T / 2, T = 1 ms)
-    grid += [(s, m, "none", k, d, j, l, v, 0.0, False, round(1.2 * k * 0.001 / 2, 6))
-             for s, k, (m, d, j, l), v in itertools.product(
+    grid += [(s, m, "none", k, d, j, loss, v, 0.0, False, round(1.2 * k * 0.001 / 2, 6))
+             for s, k, (m, d, j, loss), v in itertools.product(
                  ("plate", "edge"), (5000, 10000, 30000), (("direct", 0, 0, 0), ("local_model", 50, 20, 0.1)),
                  SPEED_M_PER_S)]
     return grid
@@ -378,7 +378,7 @@ def draw_classes(path: pathlib.Path, rows: list[dict]) -> None:
     class over scene, jitter, loss and speed."""
     colours = np.array([[0.30, 0.69, 0.29], [1.0, 0.75, 0.0], [0.89, 0.10, 0.11], [0.42, 0.24, 0.60]])
     fig, axes = plt.subplots(1, len(MODES), figsize=(16, 4.5), sharey=True)
-    for n, (ax, (mode, passivity)) in enumerate(zip(axes, MODES)):
+    for n, (ax, (mode, passivity)) in enumerate(zip(axes, MODES, strict=True)):
         classes = cells(rows, mode, passivity, lambda r: CLASSES.index(r["class"]))
         grid = np.array([[max(c) for c in line] for line in classes])
         ax.imshow(colours[grid], aspect="auto")
@@ -415,8 +415,8 @@ def draw_transparency(path: pathlib.Path, rows: list[dict]) -> None:
         panels = (("steady force error", LogNorm(1e-4, 1), "RdYlGn_r",
                    [[(np.median(c), percent(float(np.median(c))), percent(max(c))) for c in line] for line in errors]),
                   (f"penetration (mm), {slow:g} | {fast:g} m/s", LogNorm(0.3, 30), "viridis",
-                   [[(np.median(a), f"{np.median(a):.2g}", f"{np.median(b):.2g}") for a, b in zip(la, lb)]
-                    for la, lb in zip(depth[slow], depth[fast])]))
+                   [[(np.median(a), f"{np.median(a):.2g}", f"{np.median(b):.2g}") for a, b in zip(la, lb, strict=True)]
+                    for la, lb in zip(depth[slow], depth[fast], strict=True)]))
         for row, (name, norm, cmap, values) in enumerate(panels):
             ax = axes[row, n]
             colour = np.array([[v[0] for v in line] for line in values])
@@ -436,8 +436,8 @@ def draw_transparency(path: pathlib.Path, rows: list[dict]) -> None:
                  "force error: |F - F_ref| / |F_ref| of the mean force over the last 0.3 s, F_ref the same scene, "
                  "stiffness and speed rendered directly without delay, jitter or loss; colour and upper number the "
                  "median of a cell's 36 runs, lower the worst\npenetration: how deep the device point went beneath "
-                 "the face it pressed (the plate's top, through it too; the box's top, then its side); colour and upper "
-                 "number the median at 0.1 m/s, lower at 0.5 m/s", fontsize=10)
+                 "the face it pressed (the plate's top, through it too; the box's top, then its side); colour and "
+                 "upper number the median at 0.1 m/s, lower at 0.5 m/s", fontsize=10)
     fig.savefig(path, dpi=100, bbox_inches="tight")
     plt.close(fig)
 
@@ -452,7 +452,7 @@ def draw_deadband(path: pathlib.Path, rows: list[dict]) -> None:
     markers = {"plate": "o", "edge": "^"}
     floor = 1e-5  # a change of 0 (the local model on a settled wall) drawn at the axis
     fig, axes = plt.subplots(1, len(MODES), figsize=(17, 5.2), sharey=True)
-    for n, (ax, (mode, passivity)) in enumerate(zip(axes, MODES)):
+    for n, (ax, (mode, passivity)) in enumerate(zip(axes, MODES, strict=True)):
         mine = [r for r in rows if r["mode"] == mode and r["passivity"] == passivity]
         ax.add_patch(plt.Rectangle((floor / 2, 0.8), 0.1 - floor / 2, 0.25, color="#d62728", alpha=0.08, lw=0))
         ax.axhline(0.8, color="grey", lw=0.8, ls=":")
@@ -477,11 +477,14 @@ def draw_deadband(path: pathlib.Path, rows: list[dict]) -> None:
         if n == 0:
             ax.set_ylabel("messages saved (packets up + down) vs. deadband 0")
         ax.yaxis.set_major_formatter(matplotlib.ticker.PercentFormatter(1))
-    handles = [Line2D([], [], color=c, ls="--", label=f"deadband {w:.0%} and its Weber fraction") for w, c in colours.items()]
+    handles = [Line2D([], [], color=c, ls="--", label=f"deadband {w:.0%} and its Weber fraction")
+               for w, c in colours.items()]
     handles += [Line2D([], [], color="grey", marker=m, ls="", label=s) for s, m in markers.items()]
-    handles += [plt.Rectangle((0, 0), 1, 1, color="#d62728", alpha=0.15, label="aim at 10%: >= 80% saved, change < 10%")]
+    handles += [plt.Rectangle((0, 0), 1, 1, color="#d62728", alpha=0.15,
+                              label="aim at 10%: >= 80% saved, change < 10%")]
     fig.legend(handles=handles, loc="lower center", ncol=6, frameon=False, fontsize=9)
-    fig.suptitle("deadband: a point per run (0.1 m/s, no jitter or loss, stiffness 300-30,000 N/m as the marker's size, "
+    fig.suptitle("deadband: a point per run (0.1 m/s, no jitter or loss, stiffness 300-30,000 N/m "
+                 "as the marker's size, "
                  "delay 0, 20, 50, 200 ms each way); a change of 0 is drawn at the left edge", fontsize=10)
     fig.tight_layout(rect=(0, 0.07, 1, 0.95))
     fig.savefig(path, dpi=100)

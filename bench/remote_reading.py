@@ -53,7 +53,8 @@ def print_aim_a_verdict(label: str, mine: list[dict]) -> None:
     close = sum(r["force_error"] <= 0.02 for r in mine)
     worst = max(r["force_error"] for r in mine)
     print(f"  {label}: stable {stable}/{len(mine)}, passive {passive}/{len(mine)}, "
-          f"force within 2% {close}/{len(mine)} (worst {worst:.2%}) -> {verdict(stable == passive == close == len(mine))}")
+          f"force within 2% {close}/{len(mine)} (worst {worst:.2%}) -> "
+          f"{verdict(stable == passive == close == len(mine))}")
 
 
 def main() -> int:
@@ -79,7 +80,8 @@ def main() -> int:
         depth = {v: [r["penetration_m"] * 1000 for r in mine if r["speed_m_per_s"] == v] for v in (0.1, 0.5)}
         positive = sum(r["channel_energy_j"] > 0 for r in mine)
         print(f"| {name(mode, passivity)} | {len(mine)} | {same / len(mine):.0%} | {close / len(mine):.0%} | "
-              f"{statistics.median(depth[0.1]):.2g} / {statistics.median(depth[0.5]):.2g} ({max(depth[0.5] + depth[0.1]):.2g})"
+              f"{statistics.median(depth[0.1]):.2g} / {statistics.median(depth[0.5]):.2g} "
+              f"({max(depth[0.5] + depth[0.1]):.2g})"
               f" | {positive} | "
               f"{max(r['channel_energy_j'] for r in mine):.2g} J |")
     print("\nthe same by scene: class as without delay / force within 2% / penetration median (mm)")
@@ -90,22 +92,31 @@ def main() -> int:
                     and r["scene"] == scene]
             same = sum(r["class"] == ref(r)["class"] for r in mine) / len(mine)
             close = sum(r["force_error"] <= 0.02 for r in mine) / len(mine)
-            parts.append(f"{scene} {same:.0%} / {close:.0%} / {statistics.median(r['penetration_m'] for r in mine) * 1e3:.2g}")
+            parts.append(f"{scene} {same:.0%} / {close:.0%} / "
+                         f"{statistics.median(r['penetration_m'] for r in mine) * 1e3:.2g}")
         print(f"  {name(mode, passivity):20s} " + "; ".join(parts))
+
+    def reference_depth_mm(scene: str, speed: float) -> float:
+        """The no-delay reference's median penetration (mm) on a scene at a speed."""
+        return statistics.median(r["penetration_m"] for r in reference.values()
+                                 if r["scene"] == scene and r["speed_m_per_s"] == speed) * 1e3
+
     print("\nthe no-delay reference (direct): penetration median at 0.1 / 0.5 m/s, mm: " + ", ".join(
-        f"{s} " + " / ".join(f"{statistics.median(r['penetration_m'] for r in reference.values() if r['scene'] == s and r['speed_m_per_s'] == v) * 1e3:.2g}" for v in (0.1, 0.5))
+        f"{s} " + " / ".join(f"{reference_depth_mm(s, v):.2g}" for v in (0.1, 0.5))
         for s in SCENES))
     print("classes of the no-delay reference (scene, k, v): " + "; ".join(
         f"{s} {k:g} {v:g} {r['class']}" for (s, k, v), r in sorted(reference.items()) if r["class"] != "stable"))
 
-    print("\n# aim (a): local model, k >= 5000, 50 ms each way, 20 ms jitter, 10% loss: stable, passive, force within 2%")
+    print("\n# aim (a): local model, k >= 5000, 50 ms each way, 20 ms jitter, 10% loss: stable, passive, "
+          "force within 2%")
     print("  (energy: the rendered work in the surface's frame, surface_energy_j; energy_j on the plate and edge)")
     aim = aim_a_runs(sweep, "none")
     for r in sorted(aim, key=lambda r: (r["stiffness_n_per_m"], SCENES.index(r["scene"]), r["speed_m_per_s"])):
         base = ref(r)
         print(f"  {r['scene']:7s} k {r['stiffness_n_per_m']:6g} v {r['speed_m_per_s']:g}: {r['class']:15s} "
               f"(no delay: {base['class']:15s}) energy {r['surface_energy_j'] * 1e3:+8.3f} mJ (no delay "
-              f"{base['surface_energy_j'] * 1e3:+8.3f} mJ, the channel adds {(r['surface_energy_j'] - base['surface_energy_j']) * 1e3:+.4f}) "
+              f"{base['surface_energy_j'] * 1e3:+8.3f} mJ, "
+              f"the channel adds {(r['surface_energy_j'] - base['surface_energy_j']) * 1e3:+.4f}) "
               f"force error {r['force_error']:.2%}")
     for k in (5000, 10000, 30000):
         mine = [r for r in aim if r["stiffness_n_per_m"] == k]
@@ -133,7 +144,8 @@ def main() -> int:
     for r in sorted(controlled, key=lambda r: (r["stiffness_n_per_m"], r["delay_ms"], SCENES.index(r["scene"]),
                                                 r["speed_m_per_s"])):
         print(f"  {r['scene']:7s} k {r['stiffness_n_per_m']:6g} v {r['speed_m_per_s']:g} delay {r['delay_ms']:3g} "
-              f"jitter {r['jitter_ms']:g} loss {r['loss']:g}: {r['class']:15s} energy {r['surface_energy_j'] * 1e3:+8.3f} mJ  "
+              f"jitter {r['jitter_ms']:g} loss {r['loss']:g}: {r['class']:15s} "
+              f"energy {r['surface_energy_j'] * 1e3:+8.3f} mJ  "
               f"force error {r['force_error']:.2%}")
     for k in (5000, 10000, 30000):
         print_aim_a_verdict(f"controller, k {k}, 50 ms/20 ms/10%",
@@ -144,7 +156,8 @@ def main() -> int:
                                             r["delay_ms"])):
         twin = next((t for t in damped if t["scene"] == r["scene"] and t["stiffness_n_per_m"] == r["stiffness_n_per_m"]
                      and t["speed_m_per_s"] == r["speed_m_per_s"] and t["mode"] == "direct"), None)
-        added = f", the channel adds {(r['surface_energy_j'] - twin['surface_energy_j']) * 1e3:+.4f} mJ" if r["mode"] != "direct" else ""
+        added = (f", the channel adds {(r['surface_energy_j'] - twin['surface_energy_j']) * 1e3:+.4f} mJ"
+                 if r["mode"] != "direct" else "")
         print(f"  {r['scene']:7s} k {r['stiffness_n_per_m']:6g} b {r['device_damping_ns_per_m']:g} v "
               f"{r['speed_m_per_s']:g} {r['mode']:11s} delay {r['delay_ms']:2g}: {r['class']:15s} energy "
               f"{r['surface_energy_j'] * 1e3:+8.3f} mJ{added}, force error vs. b 0.5 {r['force_error']:.2%}")
@@ -207,7 +220,8 @@ def main() -> int:
                                    "speed_m_per_s")))
         print(f"  {name(r['mode'], r['passivity']):20s} k {r['stiffness_n_per_m']:6g} delay {r['delay_ms']:3g}: "
               f"{r['class']:15s} (box {twin['class']:15s}) steady force {r['steady_force_n']:.4f} N (box "
-              f"{twin['steady_force_n']:.4f}), energy {r['energy_j'] * 1e3:+.3f} mJ (box {twin['energy_j'] * 1e3:+.3f}), "
+              f"{twin['steady_force_n']:.4f}), energy {r['energy_j'] * 1e3:+.3f} mJ "
+              f"(box {twin['energy_j'] * 1e3:+.3f}), "
               f"blends {r['model_blends']:g}, outside model {r['ticks_outside_model']:g}, {r['sim_s']:.2f} s "
               f"(box {twin['sim_s']:.3f} s)")
     return 0

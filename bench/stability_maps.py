@@ -268,7 +268,7 @@ def draw_map(path: pathlib.Path, label: str, rows: list[dict]) -> None:
     lines = list(itertools.product(DELAY_MS, SPEED_M_PER_S))
 
     fig, axes = plt.subplots(1, len(THICKNESS_M), figsize=(15, 8.5), sharey=True)
-    for ax, thickness in zip(axes, THICKNESS_M):
+    for ax, thickness in zip(axes, THICKNESS_M, strict=True):
         grid = np.array([[by_key[(thickness, k, b, d, v)] for k, b in columns] for d, v in lines])
         ax.imshow(grid, cmap=ListedColormap(colours), vmin=-0.5, vmax=3.5, aspect="auto")
         # group separators and two-level tick labels
@@ -290,7 +290,7 @@ def draw_map(path: pathlib.Path, label: str, rows: list[dict]) -> None:
     method, passivity = label.split("_passivity_")
     fig.suptitle(f"{method.replace('_', ' ')}, passivity controller {passivity}: "
                  "class of each run (press with ~3 N on a plate, 1 kHz, 8 N device)", fontsize=12)
-    fig.legend(handles=[Patch(color=c, label=n) for c, n in zip(colours, names)], loc="lower center",
+    fig.legend(handles=[Patch(color=c, label=n) for c, n in zip(colours, names, strict=True)], loc="lower center",
                ncol=4, frameon=False)
     fig.tight_layout(rect=(0.03, 0.05, 1, 0.96))
     fig.savefig(path, dpi=110)
@@ -335,7 +335,7 @@ def main() -> int:
     print(f"{len(rows)} runs in {elapsed:.1f} s with {args.jobs} jobs")
     print(f"{'map':28s} " + " ".join(f"{c:>15s}" for c in CLASSES))
     for spec_label in dict.fromkeys(spec.label() for spec in grid):
-        mine = [row for spec, row in zip(grid, rows) if spec.label() == spec_label]
+        mine = [row for spec, row in zip(grid, rows, strict=True) if spec.label() == spec_label]
         write_csv(out / f"{spec_label}.csv", mine)
         draw_map(out / f"{spec_label}.png", spec_label, mine)
         counts = [sum(row["class"] == c for row in mine) for c in CLASSES]

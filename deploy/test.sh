@@ -27,8 +27,9 @@ for backend in native embree; do
   python3 "$HAPTICD_SHARED/conformance/check.py" --runner "build/bin/hapticd-query --ray-backend $backend" \
     "$HAPTICD_SHARED"/conformance/public/*.jsonl
 done
-step "Python package: lint, types, unit tests"
-(cd clients/python && ../../.venv/bin/ruff check src tests && ../../.venv/bin/mypy)
+step "Python: lint (the package by its own rules, the other scripts by ruff.toml), the package's types and unit tests"
+.venv/bin/ruff check .
+(cd clients/python && ../../.venv/bin/mypy)
 .venv/bin/python -m pytest -q clients/python/tests
 step "Python package: its wheel in a clean environment, its API guide (mkdocs --strict)"
 bash deploy/check_package.sh

@@ -116,7 +116,8 @@ def test_the_deployment_plays_as_a_pod_that_serves_a_device(image, secrets, tmp_
     podman("secret", "create", "hapticd-secrets", str(secret_file))
     pod = "hapticd-pod-0"
     try:
-        podman("kube", "play", "--replace", "--configmap", str(k8s / "scene-configmap.yaml"), str(k8s / "deployment.yaml"))
+        podman("kube", "play", "--replace", "--configmap", str(k8s / "scene-configmap.yaml"),
+               str(k8s / "deployment.yaml"))
         server = f"{pod}-server"
         deadline = time.monotonic() + 20
         while "serving" not in podman("logs", server).stderr:
@@ -125,7 +126,8 @@ def test_the_deployment_plays_as_a_pod_that_serves_a_device(image, secrets, tmp_
         # the ConfigMap's scene, two objects
         assert "(2 objects" in podman("logs", server).stderr
         limits = podman("inspect", server, "--format",
-                        "{{.HostConfig.CpuQuota}} {{.HostConfig.CpuPeriod}} {{.HostConfig.Memory}} {{.HostConfig.CapAdd}}")
+                        "{{.HostConfig.CpuQuota}} {{.HostConfig.CpuPeriod}} {{.HostConfig.Memory}} "
+                        "{{.HostConfig.CapAdd}}")
         assert limits.stdout.split() == ["100000", "100000", str(256 << 20), "[CAP_SYS_NICE]"]
         run = podman("run", "--rm", "--pod", pod, "-v", f"{secrets}:/secrets:ro", "--entrypoint", "hapticd-proxy",
                      image, "--server", "127.0.0.1:7460", "--tls-ca", "/secrets/cert.pem", "--access-token-file",

@@ -68,7 +68,7 @@ def test_the_local_model_renders_a_stiff_box_across_the_delay(bin_dir, box_scene
         # mid-press (4 s of samples at 20 Hz at most), the server's telemetry says what
         # the device holds
         with hapticd.connect(tcp, timeout_s=10) as client, client.subscribe(20) as samples:
-            for _, sample in zip(range(80), samples):
+            for _, sample in zip(range(80), samples, strict=False):
                 held = [session for session in sample.sessions if session.model_version >= 1]
                 if held:
                     seen["session"] = held[0]

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
-
 from server_process import running_server
 
 # the moving object's speed (m/s) and spin (rad/s)

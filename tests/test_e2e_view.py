@@ -25,11 +25,10 @@ import hapticd
 import numpy as np
 import pytest
 import trimesh
+from cdp_browser import Browser, chromium_path, wait_for
 from hapticd._view_model import LEGEND_ID
 from matplotlib.colors import rgb_to_hsv
 from PIL import Image
-
-from cdp_browser import Browser, chromium_path, wait_for
 from server_process import running_server
 
 # How long the page may take to show a state (s): software WebGL on a busy machine.

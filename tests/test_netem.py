@@ -7,6 +7,7 @@ counts within 5 binomial standard deviations, delays within the jitter's bounds 
 scheduling slack), the relay's own summary is checked against what arrived, garbage and
 floods leave it running with its queues capped, and the same seed gives the same fates."""
 
+import itertools
 import json
 import os
 import random
@@ -315,7 +316,7 @@ def test_a_rate_cap_spaces_the_datagrams(bin_dir, server, device):
         sending = send_stream(device, relay, 50, 0.0005, size=1000)
         times = [arrived / 1e9 for _, arrived, _ in arrivals(server, 0.3, sending)]
     assert len(times) == 50
-    gaps = sorted(b - a for a, b in zip(times, times[1:]))
+    gaps = sorted(b - a for a, b in itertools.pairwise(times))
     assert 0.0095 <= gaps[len(gaps) // 2] <= 0.0105  # one late wake-up shortens the gap after it
     assert 0.49 - SLACK_S <= times[-1] - times[0] <= 0.49 + STALL_S
 
@@ -378,7 +379,8 @@ def test_a_device_session_through_the_relay_has_the_delay_asked_for(bin_dir):
     from server_process import running_server
 
     with running_server(bin_dir, "--log-level", "warning") as hapticd:
-        with running_relay(bin_dir, hapticd.udp, "--delay-ms", "20", "--loss", "0.02", "--seed", "8") as (relay, result):
+        with running_relay(bin_dir, hapticd.udp, "--delay-ms", "20", "--loss", "0.02",
+                           "--seed", "8") as (relay, result):
             run = subprocess.run([str(bin_dir / "hapticd-proxy"), "--server", hapticd.tcp, "--udp-via",
                                   f"{relay[0]}:{relay[1]}", "--seconds", "2", "--path", "press",
                                   "--realtime-priority", "0"], capture_output=True, text=True, timeout=30)

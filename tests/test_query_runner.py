@@ -85,7 +85,7 @@ def test_a_non_finite_number_anywhere_in_the_arguments_is_named(bin_dir, shared_
                         else f"{path} is {token}")
     answers = run_query(bin_dir, lines)
     assert [a["id"] for a in answers] == ids
-    for answer, message in zip(answers, expected):
+    for answer, message in zip(answers, expected, strict=True):
         assert answer.get("error") == message, answer
 
 

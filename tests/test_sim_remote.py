@@ -132,7 +132,7 @@ def test_the_deadband_sends_a_fifth_of_the_messages_within_its_weber_fraction(tm
     assert cut["packets_up"] <= 0.2 * full["packets_up"]
     assert cut["packets_down"] <= 0.2 * full["packets_down"]
     # the device renders from its own sample: the deadband costs it no force at all here
-    errors = [abs(float(a["f_z"]) - float(b["f_z"])) for a, b in zip(full_rows, cut_rows)]
+    errors = [abs(float(a["f_z"]) - float(b["f_z"])) for a, b in zip(full_rows, cut_rows, strict=True)]
     assert max(errors) <= 1e-9
     # direct, no delay, on a 1000 N/m wall: the renderer renders the states predicted
     # on between them, as hapticd does, and answers only what leaves the band; the force
@@ -187,7 +187,7 @@ def test_an_admittance_device_lags_its_pose_by_its_response_time(tmp_path):
     scenario["device"]["response_time_s"] = 0.02
     _, rows = run_sim(tmp_path, scenario, trace=True)
     decay = math.exp(-1 / scenario["rate_hz"] / 0.02)
-    for before, after in zip(rows[10:400], rows[11:401]):
+    for before, after in itertools.pairwise(rows[10:401]):
         x, target, x_next = float(before["dev_z"]), float(before["avatar_z"]), float(after["dev_z"])
         assert abs(x_next - (target + (x - target) * decay)) <= 1e-12
 
@@ -203,7 +203,8 @@ def test_an_admittance_device_lags_its_pose_by_its_response_time(tmp_path):
 def test_bad_remote_settings_are_refused_naming_the_field(tmp_path, setting, message):
     path = tmp_path / "scenario.json"
     path.write_text(json.dumps(PRESS))
-    done = subprocess.run([str(SIM), str(path), "--set", setting], capture_output=True, text=True, timeout=60, check=False)
+    done = subprocess.run([str(SIM), str(path), "--set", setting], capture_output=True, text=True, timeout=60,
+                          check=False)
     assert done.returncode == 2
     assert message in done.stderr
 
@@ -212,6 +213,6 @@ def test_tdpa_on_an_admittance_device_is_refused_as_not_built(tmp_path):
     scenario = json.loads((SIM.parents[2] / "bench" / "scenarios" / "admittance_wall.json").read_text())
     path = tmp_path / "scenario.json"
     path.write_text(json.dumps(scenario))
-    done = subprocess.run([str(SIM), str(path), "--set", "remote.passivity=tdpa"], capture_output=True, text=True, check=False,
-                          timeout=60)
+    done = subprocess.run([str(SIM), str(path), "--set", "remote.passivity=tdpa"], capture_output=True, text=True,
+                          check=False, timeout=60)
     assert done.returncode == 2 and "remote.passivity is tdpa" in done.stderr

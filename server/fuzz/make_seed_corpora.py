@@ -139,7 +139,7 @@ def icosphere() -> tuple[list[tuple[float, float, float]], list[tuple[int, int, 
     def midpoint(a: int, b: int) -> int:
         key = (min(a, b), max(a, b))
         if key not in midpoints:
-            vertices.append(tuple((p + q) / 2 for p, q in zip(vertices[a], vertices[b])))
+            vertices.append(tuple((p + q) / 2 for p, q in zip(vertices[a], vertices[b], strict=True)))
             midpoints[key] = len(vertices) - 1
         return midpoints[key]
 

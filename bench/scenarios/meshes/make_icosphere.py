@@ -38,7 +38,7 @@ def subdivide(vertices, faces):
         key = (min(a, b), max(a, b))
         if key not in midpoint_of:
             midpoint_of[key] = len(vertices)
-            vertices.append(normalized(tuple((p + q) / 2 for p, q in zip(vertices[a], vertices[b]))))
+            vertices.append(normalized(tuple((p + q) / 2 for p, q in zip(vertices[a], vertices[b], strict=True))))
         return midpoint_of[key]
 
     result = []

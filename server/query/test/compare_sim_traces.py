@@ -76,8 +76,8 @@ def compare(old: list[list[str]], new: list[list[str]]) -> tuple[dict[str, float
     if old[0] != new[0] or len(old) != len(new):
         return {}, [f"header or length differs ({len(old)} against {len(new)} rows)"]
     worst = {column: 0.0 for column in old[0]}
-    for row, (a, b) in enumerate(zip(old[1:], new[1:]), start=1):
-        for column, x, y in zip(old[0], a, b):
+    for row, (a, b) in enumerate(zip(old[1:], new[1:], strict=True), start=1):
+        for column, x, y in zip(old[0], a, b, strict=True):
             difference = abs(float(x) - float(y)) if x != y else 0.0
             if difference > worst[column]:
                 worst[column] = difference
