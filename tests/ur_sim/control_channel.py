@@ -110,7 +110,8 @@ def handle_request(c: Controller, request: dict, drop_connections: Callable[[], 
         if cmd == "person":
             c.person = _person(c, request)
             c.event("person", kind=c.person.kind)
-            return {"ok": True, "kind": c.person.kind}
+            # t: the controller time the profile counts from (its delay_s and at_s too)
+            return {"ok": True, "kind": c.person.kind, "t": c.t}
         if cmd == "enable":
             return _set_input(c, c.config.enable_input_bit, request.get("on"))
         if cmd == "digital_input":
@@ -164,7 +165,8 @@ def _fault(c: Controller, request: dict) -> dict:
     else:
         raise RequestError(f"unknown fault kind {kind!r}")
     c.event("fault", kind=kind)
-    return {"ok": True, "kind": kind}
+    # t: the controller time the fault took effect (a drift counts from it)
+    return {"ok": True, "kind": kind, "t": c.t}
 
 
 def make_handler(controller: Controller, drop_connections: Callable[[], int]):
