@@ -637,7 +637,7 @@ def test_ft_sensor_registers_carry_the_persons_force_and_the_sensor_faults():
             before = sim.state()["t"]
             drifted = fz()
             after = sim.state()["t"]
-            assert before - drift["t"] >= 0.29
+            assert before - drift["t"] >= 0.2  # long enough to tell the rate from none
             assert -20.25 + 10 * (before - drift["t"]) - 1e-3 <= drifted <= -20.25 + 10 * (after - drift["t"]) + 1e-3
             tare_from = sim.state()["t"]
             client.write_register(12, 1)  # tare: zero from now, drifting on
