@@ -208,12 +208,15 @@ def test_cb3_simulator_at_125_hz_works_with_the_receive_interface():
         receive = rtde_receive.RTDEReceiveInterface(sim.host)
         try:
             assert receive.getActualTCPPose() == pytest.approx(START_POSE)
+            started = time.monotonic()
             t0 = receive.getTimestamp()
             time.sleep(0.3)
             t1 = receive.getTimestamp()
+            slept = time.monotonic() - started
             assert round(t0 / 0.008, 6) == int(round(t0 / 0.008, 6))
             assert round((t1 - t0) / 0.008, 6) == int(round((t1 - t0) / 0.008, 6))
-            assert t1 - t0 == pytest.approx(0.3, abs=0.05)
+            # host pace, to a period or two of what ur_rtde reads trailing
+            assert 0.3 - 0.05 <= t1 - t0 <= slept + 0.05
         finally:
             receive.disconnect()
         assert sim.dashboard("PolyscopeVersion")[0].startswith("URSoftware 3.15.")
