@@ -228,13 +228,12 @@ def _forces_from(sim, since_t: float, enough) -> dict[float, list[float]]:
     sample is checked against the profile at that time, however late this reads it."""
     samples: dict[float, list[float]] = {}
 
-    def read() -> bool:
-        state = sim.state()
+    def record(state: dict) -> bool:
         if state["t"] > since_t:
             samples[state["t"]] = state["tcp_force"]
         return enough(samples)
 
-    _until(read, lambda: f"samples after t = {since_t} (have {len(samples)})")
+    sim.wait_for(record, timeout_s=5.0, what=f"enough samples after t = {since_t}")
     return samples
 
 
