@@ -279,6 +279,8 @@ class Reading:
             "|---|---|---|---|---|---|---|---|---|---|",
         ]
         behind: list[str] = []
+        # where behind: hapticd's raw float Embree 3 against the peer (net), the engine alone
+        engine: list[float] = []
         compared = 0
         peers = sorted(
             (r for r in self.rows if r.implementation != "hapticd"),
@@ -308,11 +310,10 @@ class Reading:
                     self.hapticd(peer.query, peer.surface, "mesh", peer.level, exact=False),
                     net=True,
                 )
-                context = (
-                    f"; hapticd's own raw float Embree 3 on it: {net_and_raw(raw)}"
-                    if raw is not None and raw.backend == "embree_raw"
-                    else ""
-                )
+                context = ""
+                if raw is not None and raw.backend == "embree_raw":
+                    context = f"; hapticd's own raw float Embree 3 on it: {net_and_raw(raw)}"
+                    engine.append(raw.net_time_ns / peer.net_time_ns)
                 behind.append(
                     f"{QUERY_NAMES[peer.query]}, {peer.surface} {describe(peer)}: hapticd "
                     f"{net_and_raw(ours)} ({ours.backend}) vs {peer.implementation} "
@@ -327,6 +328,18 @@ class Reading:
         if behind:
             out += ["", f"Same representation: **behind in {len(behind)} of {compared}**:", ""]
             out += [f"- {b}" for b in behind]
+            if engine:
+                slower = sum(ratio > 1.0 for ratio in engine)
+                out += [
+                    "",
+                    prose(f"""The float engine alone, before any exact decision: hapticd's raw
+                    float Embree 3 (Debian's) on the same rays, against the peer's Embree, is
+                    {min(engine):.2f}-{max(engine):.2f} times its time, slower in {slower} of these
+                    {len(engine)}. Where it is slower, no exact path through Debian's Embree can
+                    draw level (it would decide exactly in less time than Embree decides in
+                    float); only a traversal of hapticd's own that is faster than Embree 3's
+                    could."""),
+                ]
         else:
             out += ["", f"Same representation: at or ahead in all {compared}."]
         out.append("")
