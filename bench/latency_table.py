@@ -328,6 +328,14 @@ def main() -> None:
           f"{echo_us:.1f} µs (the kernel's loopback path on both); hapticd's own work is about the "
           f"difference, {server_us - echo_us:.1f} µs. A core of its own would carry about {per_core:.0f} "
           "sessions at 1 kHz (CPU time only).")
+    # what the CPU aim leaves hapticd beyond the echo, against what every answer must do
+    margin_us = (CPU_RATIO_AIM - 1) * echo_us
+    codec_us = (ns.get("DecodeState", 0) + ns.get("EncodeCommand", 0)) * 1e-3
+    print(f"  At {CPU_RATIO_AIM} times the echo, hapticd may spend {margin_us:.2f} µs per datagram beyond it "
+          f"at this N. Authenticating and coding the state and its answer alone take {codec_us:.2f} µs of "
+          f"that (the codec below, in a hot loop), which leaves {margin_us - codec_us:.2f} µs for the "
+          "session's render tick, its bookkeeping and whatever the kernel's path costs hapticd more than "
+          "the echo.")
     if idle is not None:
         print(f"- Idle (no session, no client, {idle['seconds']} s): hapticd used "
               f"{idle['hapticd_cpu_s'] / idle['seconds'] * 1e6:.0f} µs of CPU a second, the echo "
