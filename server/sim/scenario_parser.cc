@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -444,8 +445,10 @@ class PathTracker : public rapidjson::BaseReaderHandler<rapidjson::UTF8<>, PathT
 };
 
 // The flags of every parse of a scenario: iterative, so that deep nesting cannot
-// overflow the stack (numbers are exact: server/json/exact_json.h).
-constexpr unsigned kParseFlags = rapidjson::kParseIterativeFlag;
+// overflow the stack (numbers are exact: server/json/exact_json.h); every string valid
+// UTF-8, as JSON requires (a name that is not would make every reply naming it
+// unreadable: protobuf strings are UTF-8).
+constexpr unsigned kParseFlags = rapidjson::kParseIterativeFlag | rapidjson::kParseValidateEncodingFlag;
 
 // The parse error's position, and the field it is in where the tracker knows it (the
 // tracker sees the parse that failed, up to where it failed).
@@ -460,6 +463,9 @@ std::string DescribeParseError(std::string_view json, const rapidjson::ParseResu
   const std::string_view rest = json.substr(std::min(error.Offset(), json.size()));
   if (rest.starts_with("NaN") || rest.starts_with("Infinity") || rest.starts_with("-Infinity")) {
     text += " (NaN and Infinity are not JSON numbers; every number must be finite)";
+  }
+  if (error.Code() == rapidjson::kParseErrorStringInvalidEncoding && !rest.empty()) {
+    text += fmt::format(" (byte 0x{:02x} there; every string must be UTF-8)", static_cast<uint8_t>(rest[0]));
   }
   return text;
 }

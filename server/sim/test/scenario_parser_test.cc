@@ -247,6 +247,13 @@ TEST(ParseScenario, SyntaxErrorsNameTheField) {
             "invalid JSON at line 1, column 29, in the value of scene.objects[2]: Invalid value.");
   EXPECT_EQ(error_of(R"({"scene": {"objects": [], }})"),
             "invalid JSON at line 1, column 27, in scene: Missing a name for object member.");
+  // a string that is not UTF-8 (a Latin-1 name; a lone continuation byte in a key)
+  EXPECT_EQ(error_of("{\"scene\": {\"objects\": [{\"name\": \"caf\xe9\", \"shape\": {\"type\": \"plane\"}}]}}"),
+            "invalid JSON at line 1, column 37, in the value of scene.objects[0].name: Invalid encoding in string. "
+            "(byte 0xe9 there; every string must be UTF-8)");
+  EXPECT_EQ(error_of("{\"scene\": {\"tolerance\": 1e-3, \"\x80\": 1, \"objects\": []}}"),
+            "invalid JSON at line 1, column 32, in scene: Invalid encoding in string. (byte 0x80 there; every "
+            "string must be UTF-8)");
 }
 
 // Numbers are the doubles they spell, in the file and in overrides: RapidJSON 1.1.0's

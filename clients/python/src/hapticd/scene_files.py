@@ -108,7 +108,8 @@ def read_scene_file(path: str | pathlib.Path) -> SceneFile:
     """The objects of a JSON scene file; mesh "file" paths are relative to it."""
     file = pathlib.Path(path)
     try:
-        text = file.read_text()
+        # JSON is UTF-8; bytes that are not are kept (as lone surrogates) to be named below
+        text = file.read_bytes().decode("utf-8", errors="surrogateescape")
     except OSError as exc:
         raise LocalError(f"scene file {str(file)!r} cannot be read: {exc.strerror}") from exc
     try:
@@ -120,9 +121,27 @@ def read_scene_file(path: str | pathlib.Path) -> SceneFile:
     except _NotStrictJson as exc:
         raise LocalError(f"scene file {str(file)!r} is not strict JSON: {exc}") from exc
     try:
+        _refuse_strings_not_utf8(document, "")
         return parse_scene(document, file.parent)
     except LocalError as exc:
         raise LocalError(f"{file}: {exc}") from exc
+
+
+def _refuse_strings_not_utf8(value: Any, where: str) -> None:
+    """Refuses a key or string that is not UTF-8 (the server's reader does; a name that
+    is not could not travel in a reply), naming where it is."""
+    if isinstance(value, str):
+        if any("\ud800" <= c <= "\udfff" for c in value):
+            where = where or "the document"
+            raise LocalError(f"{where} is not valid UTF-8; every string must be UTF-8")
+    elif isinstance(value, dict):
+        for key, item in value.items():
+            inner = f"{where}.{key}" if where else key
+            _refuse_strings_not_utf8(key, f"a key in {where or 'the document'}")
+            _refuse_strings_not_utf8(item, inner)
+    elif isinstance(value, list):
+        for i, item in enumerate(value):
+            _refuse_strings_not_utf8(item, f"{where}[{i}]")
 
 
 class _NotStrictJson(Exception):
