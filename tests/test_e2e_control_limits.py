@@ -109,6 +109,31 @@ def test_names_and_replies_are_bounded(bin_dir):
             assert len(hits.hit) == 100 and hits.hit.all() and set(hits.objects) == {"n" * 128}
 
 
+def test_a_name_that_is_not_utf8_is_refused_by_name_and_floods_no_log(bin_dir):
+    # protobuf refuses a string field that is not UTF-8, and once wrote a line of its own
+    # to the server's stderr for each such frame: 2,000 frames, 426 kB of log
+    with running_server(bin_dir, "--log-level", "info") as server:
+        ball = pb.Object(name="AAAA", shape=pb.Shape(sphere=pb.Sphere(radius=0.1)),
+                         material=pb.Material(stiffness=1000))
+        frame = pb.Request(request_id=2, add_object=pb.AddObject(object=ball)).SerializeToString()
+        frame = frame.replace(b"AAAA", b"caf\xe9")
+        with connect_raw(server) as sock:
+            replies = Replies(sock)
+            hello(sock, replies)
+            log_before = len(server.stderr_text())
+            sock.sendall(encode_frame(frame) * 2000)
+            for _ in range(2000):
+                refused = replies.next()
+                assert refused.error.code == pb.Error.CODE_BAD_REQUEST
+                assert refused.error.message == (
+                    f"a frame of {len(frame)} bytes is not a hapticd.v1.Request: "
+                    "hapticd.v1.Object.name is not valid UTF-8")
+            # the connection carries on, and the log holds nothing of it
+            send_request(sock, 3, get_scene=pb.GetScene())
+            assert replies.next().HasField("scene")
+            assert server.stderr_text()[log_before:] == ""
+
+
 def test_a_configured_token_is_required_on_loopback_too(bin_dir, tmp_path):
     token_file = tmp_path / "token"
     token_file.write_text(TOKEN + "\n")

@@ -9,6 +9,7 @@
 #include "server/app/server_options.h"
 #include "hapticd/version.h"
 #include "server/net/log.h"
+#include "server/net/protobuf_log.h"
 #include "server/sim/scenario_parser.h"
 
 namespace {
@@ -54,6 +55,8 @@ int main(int argc, char** argv) {
     return 0;
   }
   hapticd::net::SetLogLevel(options.log_level);
+  // before any thread starts: protobuf's lines (a peer's bad request) go through hapticd's log
+  hapticd::net::RouteProtobufLog();
 
   try {
     hapticd::scene::SceneBuilder scene = LoadInitialScene(options);

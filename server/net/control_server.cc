@@ -13,6 +13,7 @@
 #include <fmt/format.h>
 
 #include "server/net/log.h"
+#include "server/net/protobuf_log.h"
 
 namespace hapticd::net {
 namespace {
@@ -194,9 +195,17 @@ class Connection : public ConnectionBase, public std::enable_shared_from_this<Co
 
   void Serve() {
     v1::Request request;
-    if (!request.ParseFromString(body_)) {
-      Send(shared_.service.MakeError(0, v1::Error::CODE_BAD_REQUEST,
-                                     fmt::format("a frame of {} bytes is not a hapticd.v1.Request", body_.size())));
+    std::string refusal;  // why the frame is no request, when it is not
+    {
+      // what protobuf says of a frame it refuses (a name that is not UTF-8) goes in the reply
+      const ProtobufLogCapture protobuf_log;
+      if (!request.ParseFromString(body_)) {
+        refusal = fmt::format("a frame of {} bytes is not a hapticd.v1.Request", body_.size());
+        if (!protobuf_log.diagnostic().empty()) refusal += ": " + protobuf_log.diagnostic();
+      }
+    }
+    if (!refusal.empty()) {
+      Send(shared_.service.MakeError(0, v1::Error::CODE_BAD_REQUEST, refusal));
     } else {
       v1::Reply reply = shared_.service.Handle(request, state_);
       if (state_.close_after_reply) {

@@ -13,6 +13,7 @@
 #include <asio/write.hpp>
 #include <gtest/gtest.h>
 
+#include "server/net/protobuf_log.h"
 #include "server/net/test/net_harness.h"
 
 namespace hapticd::net {
@@ -150,6 +151,33 @@ TEST(ControlServer, FramesAreSmallUntilAHelloSucceeds) {
     ExpectLastError(client, v1::Error::CODE_FRAME_TOO_LARGE,
                     "a frame announced 1048577 bytes; the limit is 1048576 bytes; closing");
   }
+}
+
+// A request protobuf refuses for a string that is not UTF-8: the reply names the field,
+// the server's log holds no line of protobuf's own, and the connection goes on.
+TEST(ControlServer, ARequestWithANameThatIsNotUtf8IsRefusedByName) {
+  RouteProtobufLog();
+  ServerThread server(ControlServerOptions{});
+  Client client(server.port());
+  client.Hello();
+  v1::Request request;
+  request.set_request_id(2);
+  request.mutable_add_object()->mutable_object()->set_name("AAAA");
+  std::string bytes = request.SerializeAsString();
+  bytes.replace(bytes.find("AAAA"), 4, "caf\xe9");
+  ::testing::internal::CaptureStderr();
+  for (int i = 0; i < 100; ++i) {
+    client.SendBytes(Header(static_cast<uint32_t>(bytes.size())) + bytes);
+    const auto refused = client.Receive();
+    ASSERT_TRUE(refused && refused->has_error());
+    EXPECT_EQ(refused->error().code(), v1::Error::CODE_BAD_REQUEST);
+    EXPECT_EQ(refused->error().message(), "a frame of " + std::to_string(bytes.size()) +
+                                              " bytes is not a hapticd.v1.Request: hapticd.v1.Object.name is not "
+                                              "valid UTF-8");
+  }
+  EXPECT_EQ(::testing::internal::GetCapturedStderr().find("protobuf"), std::string::npos);
+  client.Send(GetScene(3));
+  ASSERT_TRUE(client.Receive()->has_scene());
 }
 
 // A frame begun must arrive within its deadline; a connection with nothing to do is
