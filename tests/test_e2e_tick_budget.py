@@ -1,14 +1,16 @@
 """End to end, the tick work budget (--tick-work-budget): on a real hapticd process over
-real UDP, a device pushed through a stack of triangles that no BVH can split gets its
-commands flagged overrun (the last safe force, the avatar held), each counted in its
-telemetry, while a second session pressing a box beside it renders k d on every state
-and never overruns. A budget out of range is refused by name."""
+real UDP, a device pushed through a stack of triangles that no BVH can split, or into a
+convex hull of 82k faces, gets its commands flagged overrun (the last safe force, the
+avatar held), each counted in its telemetry, while a second session pressing a box
+beside it renders k d on every state and never overruns. A budget out of range is
+refused by name."""
 
 import subprocess
 
 import hapticd
 import numpy as np
 import pytest
+import trimesh
 from server_process import running_server
 
 TRIANGLES = 20000
@@ -58,6 +60,40 @@ def test_a_session_in_a_pathological_spot_overruns_alone(bin_dir):
             # own while a state is late (the watchdog's) may overrun too, unanswered
             heavy_telemetry = by_id[heavy_info.session_id]
             assert len(overruns) <= heavy_telemetry.tick_overruns <= heavy_telemetry.ticks
+
+
+def test_a_session_inside_a_hull_of_many_faces_overruns_alone(bin_dir):
+    # A sphere of 81,920 triangles pinned as its convex hull: a point inside asks every
+    # face which is nearest (a unit of work per eight), more than the default budget
+    # holds; the hull's queries once went unmetered, and each such tick held up the
+    # realtime thread for every session.
+    sphere = trimesh.creation.icosphere(subdivisions=6, radius=0.05)
+    assert len(sphere.faces) == 81920
+    with running_server(bin_dir, "--log-level", "warning") as server:
+        with hapticd.connect(server.tcp, timeout_s=30) as client:
+            client.clear_scene()
+            client.add_box("box", (0.05, 0.05, 0.05), position=(0, 0, 0.05), material={"stiffness": 2000})
+            client.add_mesh("hull", sphere.vertices, sphere.faces, "convex", position=(-1, 0, 0.1),
+                            material={"stiffness": 2000})
+            heavy_info = client.open_session("impedance", start=(-1, 0.002, 0.2))
+            light_info = client.open_session("impedance", start=(0.01, 0.02, 0.12))
+            with hapticd.DeviceSession(heavy_info) as heavy, hapticd.DeviceSession(light_info) as light:
+                light_commands, heavy_commands = [], []
+                light_path = np.concatenate([np.linspace(0.12, 0.098, 100), np.full(200, 0.098)])
+                heavy_path = np.concatenate([np.linspace(0.2, 0.1, 100), np.full(200, 0.1)])
+                for light_z, heavy_z in zip(light_path, heavy_path, strict=True):
+                    light_commands.append(light.exchange((0.01, 0.02, light_z), timeout_s=1.0))
+                    heavy_commands.append(heavy.exchange((-1, 0.002, heavy_z), timeout_s=1.0))
+                stats = client.stats()
+            assert all(c is not None for c in light_commands + heavy_commands), "a state went unanswered"
+            assert not any(c.overrun for c in light_commands)
+            assert light_commands[-1].force[2] == pytest.approx(2000 * 0.002, rel=0.01)
+            # outside the hull the heavy session renders; once its device is inside, every tick overruns
+            assert not any(c.overrun for c in heavy_commands[:40])
+            assert all(c.overrun for c in heavy_commands[-150:])
+            by_id = {s.session_id: s for s in stats.sessions}
+            assert by_id[light_info.session_id].tick_overruns == 0
+            assert by_id[heavy_info.session_id].tick_overruns >= 150
 
 
 @pytest.mark.parametrize("value", ["99", "10000001", "many"])

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 
+#include "server/geometry/work_meter.h"
+
 namespace hapticd::geometry {
 namespace {
 
@@ -246,9 +248,12 @@ GjkResult CalcGjkDistance(const SupportMap& a, const SupportMap& b, const GjkSim
   GjkResult result;
   int hint_a = -1, hint_b = -1;
   // support point of B - A along d: b's farthest along d minus a's farthest along -d
+  // each search charged to the thread's work meter, a unit per eight vertices examined
   const auto support = [&](const Vector3& d) {
+    const int visits_before = result.support_visits;
     const SupportPoint sb = b.Support(d, hint_b, &result.support_visits);
     const SupportPoint sa = a.Support(-d, hint_a, &result.support_visits);
+    WorkMeter::Charge((result.support_visits - visits_before + 7) / 8);
     hint_a = sa.vertex, hint_b = sb.vertex;
     return SimplexVertex{sb.point - sa.point, sa.point, sb.point, sa.vertex, sb.vertex};
   };
@@ -271,6 +276,8 @@ GjkResult CalcGjkDistance(const SupportMap& a, const SupportMap& b, const GjkSim
 
   const double touch2 = kTouchRelative * kTouchRelative;
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
+    // a spent work budget: the answer so far (its tick is thrown away)
+    if (WorkMeter::Exhausted()) break;
     // the origin is in the simplex, or within rounding of it: touching or overlapping
     if (simplex.size == 4 || simplex.vv <= touch2 * simplex.ExtentSquared()) {
       result.intersect = true;

@@ -138,7 +138,9 @@ struct GjkResult {
 // Distance between a and b (both in one frame). warm_start: a simplex from an earlier
 // query of the same shapes (vertex pairs are re-evaluated at the shapes' current
 // poses), or null for a cold start. Non-finite input gives unspecified values after
-// at most max_iterations steps, never a crash. Does not allocate.
+// at most max_iterations steps, never a crash. Does not allocate. Charges the thread's
+// work meter (work_meter.h) a unit per eight vertices the support searches examine, and
+// stops early, with the answer so far, once its budget is spent.
 GjkResult CalcGjkDistance(const SupportMap& a, const SupportMap& b,
                           const GjkSimplex* warm_start = nullptr, const GjkOptions& options = {});
 

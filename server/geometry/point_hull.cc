@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "server/geometry/gjk.h"
+#include "server/geometry/work_meter.h"
 
 namespace hapticd::geometry {
 
@@ -22,6 +23,8 @@ PointHullResult CalcPointHullDistance(const ConvexHull& hull, const Vector3& p) 
     result.normal = gjk.normal;
     return result;
   }
+  // inside: every face is tried, a unit of work per eight (a spent budget: no answer)
+  if (!WorkMeter::Charge((static_cast<int64_t>(hull.faces.size()) + 7) / 8)) return result;
   double best = -std::numeric_limits<double>::infinity();
   int best_face = -1;
   for (size_t f = 0; f < hull.faces.size(); ++f) {

@@ -21,7 +21,9 @@ struct PointHullResult {
 // have a direction (subnormal) is answered as on the boundary, by the faces. Not found
 // (found false, the other fields at their defaults): a NaN or infinite p, a hull of
 // lower dimension, or one whose every face normal underflowed (no direction to push
-// along). Allocation-free.
+// along); also a point inside when the thread's work meter (work_meter.h) cannot pay
+// for the faces, a unit per eight (GJK's searches are charged as CalcGjkDistance
+// says). Allocation-free.
 PointHullResult CalcPointHullDistance(const ConvexHull& hull, const Vector3& p);
 
 }  // namespace hapticd::geometry

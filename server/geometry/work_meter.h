@@ -2,10 +2,11 @@
 
 // A bound on the work of one real-time tick. Every session renders on the one real-time
 // thread, and a tick can meet a pathological spot of a scene (a stack of large
-// overlapping triangles that no BVH can split, thousands of objects within reach): left
-// unbounded, one such tick would delay every other session's. So the queries charge
-// their work to their thread's meter, one unit per BVH node opened, primitive tested or
-// object visited, and stop early once the budget is spent. Their answers are then
+// overlapping triangles that no BVH can split, thousands of objects within reach, a
+// hull of a million faces): left unbounded, one such tick would delay every other
+// session's. So the queries charge their work to their thread's meter, one unit per BVH
+// node opened, primitive tested or object visited, and per eight hull vertices or faces
+// examined, and stop early once the budget is spent. Their answers are then
 // incomplete: the caller that started the meter (RenderSession::Tick) throws the tick's
 // result away, counts an overrun and sends the last safe force.
 //

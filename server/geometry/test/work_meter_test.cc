@@ -2,11 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <memory>
 #include <vector>
 
+#include "server/geometry/convex_hull.h"
 #include "server/geometry/mesh_generators.h"
 #include "server/geometry/mesh_queries.h"
+#include "server/geometry/point_hull.h"
 #include "server/geometry/sphere_sweep.h"
 
 namespace hapticd::geometry {
@@ -76,6 +79,55 @@ TEST(WorkMeter, LeavesOrdinaryQueriesAlone) {
   EXPECT_EQ(closest.point, free_closest.point);
   EXPECT_EQ(sweep.t, free_sweep.t);
   EXPECT_EQ(sweep.triangle, free_sweep.triangle);
+}
+
+// A hull of many faces (a finely tessellated sphere's: 18,000 faces) costs a point
+// inside a unit per eight faces and one outside GJK's searches over its vertices; under a
+// budget, inside finds nothing once the faces cannot be paid for, and outside GJK stops
+// early. A small hull's queries stay within the budget and answer as unmetered.
+TEST(WorkMeter, StopsThePointHullQueryOnAHullOfManyFaces) {
+  constexpr int64_t kBudget = 1000;
+  const ConvexHull hull = BuildConvexHull(MakeIcosphere(30, 0.05).vertices());
+  ASSERT_EQ(hull.faces.size(), 18000u);
+  const Vector3 inside(0.001, 0.002, 0.01);
+  {
+    const WorkMeter unbounded(int64_t{1} << 40);
+    EXPECT_TRUE(CalcPointHullDistance(hull, inside).found);
+    EXPECT_GE(unbounded.used(), 18000 / 8);
+  }
+  {
+    const WorkMeter meter(kBudget);
+    EXPECT_FALSE(CalcPointHullDistance(hull, inside).found);
+    EXPECT_TRUE(meter.exhausted());
+  }
+  // outside, from the far side of where GJK starts its searches (+x)
+  const Vector3 outside(-0.0501, 0.0003, 0.0002);
+  int64_t whole = 0;
+  {
+    const WorkMeter unbounded(int64_t{1} << 40);
+    EXPECT_TRUE(CalcPointHullDistance(hull, outside).found);
+    whole = unbounded.used();
+  }
+  EXPECT_GT(whole, 100) << "a hill climb across the hull";
+  const WorkMeter meter(whole / 4);
+  const PointHullResult partial = CalcPointHullDistance(hull, outside);
+  EXPECT_TRUE(meter.exhausted());
+  EXPECT_LT(meter.used(), whole) << "GJK stopped early";
+  EXPECT_FALSE(std::isnan(partial.signed_distance));
+}
+
+TEST(WorkMeter, LeavesSmallHullsAlone) {
+  const ConvexHull hull = BuildConvexHull(MakeIcosphere(3, 0.05).vertices());
+  for (const Vector3& p : {Vector3(0.001, 0.002, 0.01), Vector3(-0.06, 0.01, 0.02)}) {
+    const PointHullResult free = CalcPointHullDistance(hull, p);
+    const WorkMeter meter(100);
+    const PointHullResult metered = CalcPointHullDistance(hull, p);
+    EXPECT_FALSE(meter.exhausted()) << meter.used();
+    EXPECT_GT(meter.used(), 0);
+    EXPECT_EQ(metered.found, free.found);
+    EXPECT_EQ(metered.signed_distance, free.signed_distance);
+    EXPECT_EQ(metered.point, free.point);
+  }
 }
 
 // A meter inside another charges the outer one with what it used; with none running a
