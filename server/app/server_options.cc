@@ -78,11 +78,12 @@ budgets (what one client can make the server hold or do; over one, a clear error
                             67108864; before a successful Hello 4096)
   --idle-timeout S          seconds a control connection without subscriptions may
                             send nothing before it is closed (default 600)
-  --tick-work-budget N      work units (BVH nodes, primitives, objects) one session's
-                            render tick may spend, from 100 to 10000000 (default
-                            10000), refilled by a quarter a tick; a tick over it
-                            sends the last safe force, flagged OVERRUN, so no spot
-                            of the scene delays other sessions
+  --tick-work-budget N      work units (BVH nodes, primitives, objects, eight hull
+                            vertices or faces) one session's render tick may
+                            spend, from 100 to 10000000 (default 10000),
+                            refilled by a quarter a tick; a tick over it sends
+                            the last safe force, flagged OVERRUN, so no spot of
+                            the scene delays other sessions
 )";
 }
 
