@@ -8,7 +8,9 @@ import struct
 import time
 
 import hapticd
+import numpy as np
 import pytest
+import trimesh
 from hapticd._framing import FrameDecoder, encode_frame
 from hapticd.v1 import hapticd_pb2 as pb
 from server_process import running_server
@@ -132,6 +134,27 @@ def test_a_name_that_is_not_utf8_is_refused_by_name_and_floods_no_log(bin_dir):
             send_request(sock, 3, get_scene=pb.GetScene())
             assert replies.next().HasField("scene")
             assert server.stderr_text()[log_before:] == ""
+
+
+def test_a_query_over_the_request_work_budget_is_refused(bin_dir):
+    # A batch of rays from inside a hull of 81,920 faces: each ray asks the faces which is
+    # nearest, again and again; unmetered, a million such rays held the control thread
+    # (and every other client) for about 17 minutes.
+    sphere = trimesh.creation.icosphere(subdivisions=6, radius=0.05)
+    with running_server(bin_dir, "--log-level", "warning", "--max-request-work", "1000000") as server:
+        with hapticd.connect(server.tcp, timeout_s=30) as client:
+            client.add_mesh("hull", sphere.vertices, sphere.faces, "convex", position=(-1, 0, 0.1))
+            inside = np.tile([-1.0, 0.001, 0.1], (1000, 1))
+            with pytest.raises(hapticd.RemoteError) as refused:
+                client.ray_cast_batch(inside, (0, 0, 1), max_distance=1.0)
+            assert refused.value.code == "RESOURCE_EXHAUSTED"
+            assert refused.value.message.startswith(
+                "ray_cast_batch needs more than 1000000 units of work, the most one request may take "
+                "(--max-request-work;")
+            # a smaller batch is answered, and the connection carries on
+            hits = client.ray_cast_batch(inside[:10], (0, 0, 1), max_distance=1.0)
+            assert hits.hit.all() and set(hits.objects) == {"hull"}
+            assert hits.distance == pytest.approx(0.05, abs=1e-3)
 
 
 def test_a_configured_token_is_required_on_loopback_too(bin_dir, tmp_path):

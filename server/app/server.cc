@@ -63,6 +63,7 @@ struct Server::Impl {
   net::ServiceOptions MakeServiceOptions(const ServerOptions& options) {
     net::ServiceOptions service_options;
     service_options.tick_work_budget = options.tick_work_budget;
+    service_options.max_request_work = options.max_request_work;
     service_options.udp_endpoint =
         FormatEndpoint(realtime.local_endpoint().address(), realtime.local_endpoint().port());
     if (!options.access_token_file.empty()) service_options.access_token = ReadToken(options.access_token_file);

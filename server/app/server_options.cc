@@ -30,7 +30,7 @@ constexpr std::string_view kValueOptions[] = {
     "--host", "--tcp-port", "--udp-port", "--scene", "--ray-backend", "--max-sessions",
     "--realtime-priority", "--tls-cert", "--tls-key", "--access-token-file", "--observer-token-file", "--log-level",
     "--max-objects", "--max-mesh-triangles", "--max-scene-triangles", "--max-connections",
-    "--max-request-bytes", "--idle-timeout", "--tick-work-budget"};
+    "--max-request-bytes", "--idle-timeout", "--tick-work-budget", "--max-request-work"};
 
 }  // namespace
 
@@ -84,6 +84,13 @@ budgets (what one client can make the server hold or do; over one, a clear error
                             refilled by a quarter a tick; a tick over it sends
                             the last safe force, flagged OVERRUN, so no spot of
                             the scene delays other sessions
+  --max-request-work N      work units (as above) one query request (ray casts,
+                            closest points, contacts; one or a batch) may spend
+                            on the control thread, from 10000 to 1000000000000
+                            (default 100000000, about 3 s here); a request over
+                            it is refused (RESOURCE_EXHAUSTED), so that no query
+                            holds up the other clients for long: ask in smaller
+                            batches
 )";
 }
 
@@ -151,6 +158,8 @@ ServerOptions ParseServerOptions(std::span<const std::string_view> args) {
       options.max_request_bytes = ReadInt<uint32_t>(option, value, 4096, net::kMaxFrameSize);
     } else if (option == "--tick-work-budget") {
       options.tick_work_budget = ReadInt<int64_t>(option, value, int64_t{100}, int64_t{10'000'000});
+    } else if (option == "--max-request-work") {
+      options.max_request_work = ReadInt<int64_t>(option, value, int64_t{10'000}, int64_t{1'000'000'000'000});
     } else {
       options.idle_timeout_s = ReadInt(option, value, 1, 24 * 3600);
     }

@@ -37,6 +37,7 @@ struct ServerOptions {
   // What one scene and one connection may take (--max-objects, --max-connections, ...).
   scene::SceneBudgets scene_budgets;
   int64_t tick_work_budget = force::kDefaultTickWorkBudget;
+  int64_t max_request_work = net::kDefaultMaxRequestWork;
   std::size_t max_connections = 64;
   uint32_t max_request_bytes = net::kMaxFrameSize;
   int idle_timeout_s = 600;

@@ -4,9 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 
 #include <fmt/format.h>
 
+#include "server/geometry/work_meter.h"
 #include "server/net/log.h"
 #include "server/net/point_batches.h"
 #include "server/net/proto_convert.h"
@@ -36,6 +38,20 @@ bool SameSecret(std::string_view given, std::string_view secret) {
 }
 
 std::string_view RoleName(Role role) { return role == Role::kObserver ? "observer" : "operator"; }
+
+// The queries of the scene, by their request's field name; empty for any other request.
+std::string_view QueryName(v1::Request::BodyCase body) {
+  using R = v1::Request;
+  switch (body) {
+    case R::kRayCast: return "ray_cast";
+    case R::kRayCastBatch: return "ray_cast_batch";
+    case R::kClosestPoint: return "closest_point";
+    case R::kFindContacts: return "find_contacts";
+    case R::kClosestPointBatch: return "closest_point_batch";
+    case R::kFindContactsBatch: return "find_contacts_batch";
+    default: return {};
+  }
+}
 
 // Whether an observer may make this request: only those that read.
 bool IsReadOnly(v1::Request::BodyCase body) {
@@ -103,7 +119,19 @@ v1::Reply ControlService::Handle(const v1::Request& request, ConnectionState& co
     if (!unknown.empty()) {
       throw BadRequest(unknown + " is not part of hapticd.v1; is the client built for another version?");
     }
+    // a query's work is bounded (--max-request-work): the control thread serves every
+    // client, and a batch against a hull of a million faces could hold it for minutes
+    const std::string_view query = QueryName(request.body_case());
+    std::optional<geometry::WorkMeter> meter;
+    if (!query.empty()) meter.emplace(options_.max_request_work);
     v1::Reply reply = Dispatch(request, connection);
+    if (meter && meter->exhausted()) {
+      throw RequestError(v1::Error::CODE_RESOURCE_EXHAUSTED,
+                         fmt::format("{} needs more than {} units of work, the most one request may take "
+                                     "(--max-request-work; a unit is a BVH node, a primitive, an object or "
+                                     "eight hull vertices or faces); ask it in smaller batches",
+                                     query, options_.max_request_work));
+    }
     reply.set_request_id(request.request_id());
     return reply;
   } catch (const RequestError& e) {

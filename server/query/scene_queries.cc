@@ -286,7 +286,10 @@ void FindClosestPoints(const scene::SceneSnapshot& scene, std::span<const Vector
                        std::span<SceneContact> out) {
   const std::size_t n = std::min(p_W.size(), out.size());
   std::vector<NearCandidate> order;
-  for (std::size_t i = 0; i < n; ++i) out[i] = FindNearestSurface(scene, p_W[i], max_distance, order);
+  // a spent work budget stops the batch: its answers are thrown away (WorkMeter)
+  for (std::size_t i = 0; i < n && !geometry::WorkMeter::Exhausted(); ++i) {
+    out[i] = FindNearestSurface(scene, p_W[i], max_distance, order);
+  }
 }
 
 bool FindObjectContactsBatch(const scene::SceneSnapshot& scene, std::span<const Vector3> c_W,
@@ -294,7 +297,7 @@ bool FindObjectContactsBatch(const scene::SceneSnapshot& scene, std::span<const 
                              std::span<int> counts) {
   const std::size_t n = std::min({c_W.size(), counts.size(), r.size() == 1 ? c_W.size() : r.size()});
   std::vector<int> near;
-  for (std::size_t i = 0; i < n; ++i) {
+  for (std::size_t i = 0; i < n && !geometry::WorkMeter::Exhausted(); ++i) {
     const std::size_t before = out.size();
     AppendObjectContacts(scene, c_W[i], r.size() == 1 ? r[0] : r[i], near, out);
     // refuse rather than answer past the bound

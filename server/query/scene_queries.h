@@ -54,7 +54,8 @@ SceneSweep SweepSphereScene(const scene::SceneSnapshot& scene, const Vector3& a_
 
 // The first crossing of each segment a_W[i] -> b_W[i] (a point's sweep: SweepSphereScene
 // with r = 0), for the first min(sizes) segments; of simultaneous ones, the first object
-// in the scene. Meshes trace all segments together on their backend. Allocates: for the
+// in the scene. Meshes trace all segments together on their backend. Stops early once
+// the thread's work meter is spent (the answers are then incomplete). Allocates: for the
 // control thread.
 void CastSegments(const scene::SceneSnapshot& scene, std::span<const Vector3> a_W, std::span<const Vector3> b_W,
                   std::span<SceneSweep> out);
@@ -72,8 +73,8 @@ std::vector<SceneContact> FindObjectContacts(const scene::SceneSnapshot& scene, 
 // -signed distance; object -1 where none lies within reach or p_W[i] is not finite.
 // The same answers, found nearest first: the objects near a point are probed in the
 // order of a bound on their signed distance (from their boxes) until none left can be
-// nearer, so a large max_distance costs little more than a small one. Allocates: for
-// the control thread.
+// nearer, so a large max_distance costs little more than a small one. Stops early once
+// the thread's work meter is spent. Allocates: for the control thread.
 void FindClosestPoints(const scene::SceneSnapshot& scene, std::span<const Vector3> p_W, double max_distance,
                        std::span<SceneContact> out);
 
@@ -81,8 +82,8 @@ void FindClosestPoints(const scene::SceneSnapshot& scene, std::span<const Vector
 // centre when r holds one value; each >= 0) in turn: appends its contacts to out (after
 // what out held) and sets counts[i] to their number, for the first min(c_W.size(),
 // counts.size(), r.size() unless 1) centres. Returns false, with out and counts partly
-// filled, as soon as out holds more than max_contacts. Allocates: for the control
-// thread.
+// filled, as soon as out holds more than max_contacts; stops early (returning true)
+// once the thread's work meter is spent. Allocates: for the control thread.
 bool FindObjectContactsBatch(const scene::SceneSnapshot& scene, std::span<const Vector3> c_W,
                              std::span<const double> r, std::size_t max_contacts, std::vector<SceneContact>& out,
                              std::span<int> counts);

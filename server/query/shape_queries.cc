@@ -10,6 +10,7 @@
 #include "server/geometry/sphere_box.h"
 #include "server/geometry/sphere_convex_sweep.h"
 #include "server/geometry/sphere_sphere.h"
+#include "server/geometry/work_meter.h"
 #include "server/query/mesh_backends.h"
 
 namespace hapticd::query {
@@ -337,15 +338,18 @@ void SweepPointsShape(const scene::Shape& shape, std::span<const Vector3> a_B, s
                       std::span<ShapeSweep> out) {
   const std::size_t n = std::min({a_B.size(), b_B.size(), out.size()});
   const auto* mesh = std::get_if<MeshShape>(&shape);
+  // a spent work budget stops the batch: its answers are thrown away (WorkMeter)
   if (mesh == nullptr) {
-    for (std::size_t i = 0; i < n; ++i) out[i] = SweepSphereShape(shape, a_B[i], b_B[i], 0);
+    for (std::size_t i = 0; i < n && !geometry::WorkMeter::Exhausted(); ++i) {
+      out[i] = SweepSphereShape(shape, a_B[i], b_B[i], 0);
+    }
     return;
   }
   // the backend's batch (Embree's packets) finds each segment's first crossing; the
   // point sweep decides the rest
   std::array<geometry::SegmentMeshHit, 64> hits;
   const geometry::TriangleMesh& triangles = mesh->bvh->mesh();
-  for (std::size_t first = 0; first < n; first += hits.size()) {
+  for (std::size_t first = 0; first < n && !geometry::WorkMeter::Exhausted(); first += hits.size()) {
     const std::size_t count = std::min(hits.size(), n - first);
     BackendOf(*mesh).first_segment_hits(*mesh, a_B.subspan(first, count), b_B.subspan(first, count),
                                         std::span(hits).first(count));

@@ -64,7 +64,8 @@ ShapeSweep SweepSphereShape(const scene::Shape& shape, const Vector3& a_B, const
                             const GatheredMesh& near);
 
 // out[i] = SweepSphereShape(shape, a_B[i], b_B[i], 0) for the first min(sizes) segments
-// (a ray batch): a mesh's backend traces them together (Embree in packets).
+// (a ray batch): a mesh's backend traces them together (Embree in packets). Stops early
+// once the thread's work meter is spent (the rest of out left as it was).
 void SweepPointsShape(const scene::Shape& shape, std::span<const Vector3> a_B, std::span<const Vector3> b_B,
                       std::span<ShapeSweep> out);
 

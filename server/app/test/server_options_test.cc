@@ -69,6 +69,12 @@ TEST(ServerOptions, BudgetsAreSetAndBounded) {
   EXPECT_EQ(ErrorOf({"--max-request-bytes", "100"}),
             "--max-request-bytes is \"100\"; it must be a whole number from 4096 to 67108864");
   EXPECT_EQ(ErrorOf({"--idle-timeout", "-5"}), "--idle-timeout is \"-5\"; it must be a whole number from 1 to 86400");
+  // the work of one query request
+  EXPECT_EQ(defaults.max_request_work, 100'000'000);
+  EXPECT_EQ(Parse({"--max-request-work", "20000"}).max_request_work, 20000);
+  EXPECT_EQ(ErrorOf({"--max-request-work", "9999"}),
+            "--max-request-work is \"9999\"; it must be a whole number from 10000 to 1000000000000");
+  EXPECT_EQ(ErrorOf({"--max-request-work"}), "--max-request-work needs a value");
 }
 
 TEST(ServerOptions, LeavingLoopbackNeedsTlsAndAToken) {

@@ -556,5 +556,69 @@ TEST(ControlService, ABatchOfRaysAnswersAsSingleRays) {
   EXPECT_EQ(zero.error().message().rfind("ray_cast_batch segment 1 has origin [", 0), 0u) << zero.error().message();
 }
 
+// A query request's work is bounded (--max-request-work): over it the request is
+// refused by name, RESOURCE_EXHAUSTED, while the same query in a smaller batch is
+// answered and requests that are no queries are not metered. The budget here is 10,000
+// units: 5,000 rays through a 720-triangle sphere, or points inside a hull of 18,000
+// faces (2,250 units each), need more.
+TEST(ControlService, AQueryOverTheRequestWorkBudgetIsRefused) {
+  Harness harness(8, 10'000);
+  const std::string over =
+      " needs more than 10000 units of work, the most one request may take (--max-request-work; a unit is a "
+      "BVH node, a primitive, an object or eight hull vertices or faces); ask it in smaller batches";
+  for (const auto& [name, frequency, representation] :
+       {std::tuple{"ball", 6, v1::REPRESENTATION_MESH}, std::tuple{"hull", 30, v1::REPRESENTATION_CONVEX}}) {
+    const geometry::TriangleMesh sphere = geometry::MakeIcosphere(frequency, 0.05);
+    v1::Object object;
+    object.set_name(name);
+    object.mutable_material()->set_stiffness(1000);
+    object.mutable_pose()->mutable_position()->set_x(representation == v1::REPRESENTATION_MESH ? 0.5 : -0.5);
+    v1::Mesh* mesh = object.mutable_shape()->mutable_mesh();
+    mesh->set_representation(representation);
+    for (const auto& v : sphere.vertices()) {
+      for (int k = 0; k < 3; ++k) mesh->add_vertices(v[k]);
+    }
+    for (const auto& t : sphere.triangles()) {
+      for (int k = 0; k < 3; ++k) mesh->add_triangles(t[k]);
+    }
+    ASSERT_TRUE(harness.Call(Add(object)).has_done());
+  }
+  // rays down through the mesh sphere
+  const auto rays_through_the_ball = [](int n) {
+    v1::Request request;
+    v1::RayCastBatch* rays = request.mutable_ray_cast_batch();
+    rays->set_max_distance(0.3);
+    for (int i = 0; i < n; ++i) {
+      for (const double value : {0.5 + 0.03 * std::cos(i), 0.03 * std::sin(i), 0.2}) rays->add_origins(value);
+      for (const double value : {0.0, 0.0, -1.0}) rays->add_directions(value);
+    }
+    return request;
+  };
+  ExpectError(harness.Call(rays_through_the_ball(5000)), v1::Error::CODE_RESOURCE_EXHAUSTED, "ray_cast_batch" + over);
+  const v1::Reply few_rays = harness.Call(rays_through_the_ball(50));
+  ASSERT_TRUE(few_rays.has_ray_hits()) << few_rays.DebugString();
+  for (int i = 0; i < 50; ++i) EXPECT_EQ(few_rays.ray_hits().objects(i), "ball") << i;
+  // points inside the hull
+  const auto points_in_the_hull = [](int n) {
+    v1::Request request;
+    v1::ClosestPointBatch* batch = request.mutable_closest_point_batch();
+    batch->set_max_distance(1);
+    for (int i = 0; i < n; ++i) {
+      for (const double value : {-0.5 + 0.001 * i, 0.002, 0.01}) batch->add_points(value);
+    }
+    return request;
+  };
+  ExpectError(harness.Call(points_in_the_hull(10)), v1::Error::CODE_RESOURCE_EXHAUSTED,
+              "closest_point_batch" + over);
+  const v1::Reply one_point = harness.Call(points_in_the_hull(1));
+  ASSERT_TRUE(one_point.has_closest_points()) << one_point.DebugString();
+  EXPECT_TRUE(one_point.closest_points().found(0));
+  EXPECT_LT(one_point.closest_points().signed_distance(0), 0);
+  // a request that is no query is not metered
+  v1::Request scene;
+  scene.mutable_get_scene();
+  EXPECT_TRUE(harness.Call(scene).has_scene());
+}
+
 }  // namespace
 }  // namespace hapticd::net

@@ -32,19 +32,20 @@ inline scene::SceneBuilder MakeTestScene() {
 }
 
 struct Harness {
-  explicit Harness(int capacity = 8)
+  explicit Harness(int capacity = 8, int64_t max_request_work = kDefaultMaxRequestWork)
       : publisher(MakeTestScene().Build(1), 2),
         sessions(capacity),
         realtime(asio::ip::udp::endpoint(asio::ip::make_address("127.0.0.1"), 0), sessions, publisher),
-        service(MakeTestScene(), publisher, sessions, realtime.counters(), Options()) {
+        service(MakeTestScene(), publisher, sessions, realtime.counters(), Options(max_request_work)) {
     connection.authenticated = true;
     connection.id = 1;
   }
 
-  ServiceOptions Options() {
+  ServiceOptions Options(int64_t max_request_work = kDefaultMaxRequestWork) {
     ServiceOptions options;
     options.udp_endpoint = "127.0.0.1:" + std::to_string(realtime.local_endpoint().port());
     options.access_token = "0123456789abcdef-token";
+    options.max_request_work = max_request_work;
     return options;
   }
 
