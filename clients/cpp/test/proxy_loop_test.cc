@@ -370,8 +370,10 @@ TEST(ProxyLoop, UnderTdpaAForceHeldAcrossAStallIsTakenBackAfterIt) {
   EXPECT_EQ(report.server_end.energy_in, kAllowed);
   // the stall: the held force pushed the handle far beyond the allowance
   EXPECT_GT(report.stall_work_j, 10 * kAllowed);
-  // taken back after it, and nothing owed at the end
-  EXPECT_GT(report.device_repaid_j, report.stall_work_j - kAllowed);
+  // taken back after it, and nothing owed at the end: at least the excess (exactly it
+  // where the held force did all its work across stalls, as when this loaded machine
+  // stalls the loop too)
+  EXPECT_GE(report.device_repaid_j, report.stall_work_j - kAllowed - 1e-12);
   EXPECT_EQ(report.device_owed_j, 0);
   EXPECT_LE(report.device_energy.out, report.server_end.energy_in + 1e-12);
   EXPECT_LE(report.channel_energy_j(), 1e-12);
