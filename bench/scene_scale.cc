@@ -65,7 +65,7 @@ scene::SceneBuilder MakeScene(int n, int kinematic) {
   const geometry::TriangleMesh ball = geometry::MakeIcosphere(3, 1.0);
   for (int i = 1; i < n; ++i) {
     scene::ObjectSpec spec;
-    spec.name = "o" + std::to_string(i);
+    spec.name = std::string("o").append(std::to_string(i));
     spec.material.stiffness = 1000;
     do {
       spec.X_WB.translation = Vector3(coordinate(random), coordinate(random), coordinate(random));

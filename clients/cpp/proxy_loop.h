@@ -74,7 +74,7 @@ struct ProxyChannel {
   // The channel as the session was opened (hapticd.v1.OpenSession): two-port passivity
   // (impedance devices; the device's end runs here) and the deadband of its states.
   bool tdpa = false;
-  remote::DeadbandSettings deadband;
+  remote::DeadbandSettings deadband{};
 };
 
 // A run's outcome. Percentiles in ns.

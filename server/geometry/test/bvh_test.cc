@@ -51,7 +51,9 @@ void ExpectDiscsHoldTheirChildren(const MeshBvh& bvh, const std::string& what) {
         EXPECT_EQ(discs.thickness[c], std::numeric_limits<float>::infinity()) << what;
         const bool small = !under.empty() && under.size() <= kMaxDiscTriangles;
         // (a small child is left infinite only where float cannot hold its disc)
-        if (small) EXPECT_GT(bvh.bounds().size().norm(), 1e30) << what << ": node " << node << " child " << c;
+        if (small) {
+          EXPECT_GT(bvh.bounds().size().norm(), 1e30) << what << ": node " << node << " child " << c;
+        }
         continue;
       }
       ++finite;
@@ -73,7 +75,9 @@ void ExpectDiscsHoldTheirChildren(const MeshBvh& bvh, const std::string& what) {
     }
   }
   // (a mesh beyond float's range has none)
-  if (bvh.bounds().size().norm() < 1e30) EXPECT_GT(finite, 0) << what;
+  if (bvh.bounds().size().norm() < 1e30) {
+    EXPECT_GT(finite, 0) << what;
+  }
 }
 
 // Checks the structure of a BVH against its mesh:

@@ -204,7 +204,9 @@ TEST(RayTriangleWatertight, RaysParallelToRoundingHaveFiniteT) {
     const Vector3 dir = 0.7 * (tri.v1 - tri.v0) - 0.2 * (tri.v2 - tri.v0);
     const TriangleHit h = IntersectRayTriangleWatertight(origin, dir, tri);
     hits += h.hit;
-    if (h.hit) ASSERT_TRUE(std::isfinite(h.t) && h.t >= 0) << "case " << i << ": t " << h.t;
+    if (h.hit) {
+      ASSERT_TRUE(std::isfinite(h.t) && h.t >= 0) << "case " << i << ": t " << h.t;
+    }
   }
   std::printf("rays along the plane to rounding that hit: %d of 20000\n", hits);
   EXPECT_GT(hits, 1000);

@@ -137,7 +137,9 @@ TEST(TriangleMesh, DropsTrianglesTooSmallForANormal) {
     const bool dropped = edge < 1e-77;
     EXPECT_EQ(mesh.is_degenerate(4), dropped) << edge;
     EXPECT_EQ(mesh.num_degenerate_triangles(), dropped ? 1 : 0) << edge;
-    if (!dropped) EXPECT_EQ(mesh.face_normal(4), Vector3(0, 0, 1)) << edge;
+    if (!dropped) {
+      EXPECT_EQ(mesh.face_normal(4), Vector3(0, 0, 1)) << edge;
+    }
   }
 }
 

@@ -35,7 +35,9 @@ scene::ObjectSpec MeshObject(std::string name, std::vector<Vector3> vertices,
 }
 
 TEST(ObjectInfo, SaysWhetherAMeshIsClosedRewoundOrFarFromItsPin) {
-  scene::SceneBuilder builder(scene::SceneSettings{1e-4});
+  scene::SceneSettings settings;
+  settings.tolerance = 1e-4;
+  scene::SceneBuilder builder(settings);
   const std::vector<Vector3> tetra = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
   builder.Add(MeshObject("inside_out", tetra, {{0, 1, 2}, {0, 3, 1}, {0, 2, 3}, {1, 3, 2}},
                          scene::Representation::kMesh));
@@ -86,7 +88,9 @@ TEST(ObjectInfo, SaysWhetherAMeshIsClosedRewoundOrFarFromItsPin) {
 
 // A pin with no finite bound (a flat sheet as a sphere) is refused naming the pin.
 TEST(ObjectInfo, APinWithNoBoundIsRefused) {
-  scene::SceneBuilder builder(scene::SceneSettings{1e-4});
+  scene::SceneSettings settings;
+  settings.tolerance = 1e-4;
+  scene::SceneBuilder builder(settings);
   try {
     builder.Add(MeshObject("sheet", {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}}, {{0, 1, 2}, {0, 2, 3}},
                            scene::Representation::kSphere));

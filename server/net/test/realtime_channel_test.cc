@@ -449,7 +449,9 @@ TEST_F(RealtimeChannelTest, TwoPortPassivityHoldsTheInputBackUntilEnergyComes) {
     ASSERT_TRUE(pressed && held);
     // numbered from 1, in order (a watchdog command of a stalled test counts too)
     EXPECT_GT(held->command_number, number);
-    if (sequence == 1) EXPECT_EQ(held->command_number, 1u);
+    if (sequence == 1) {
+      EXPECT_EQ(held->command_number, 1u);
+    }
     number = held->command_number;
   }
   EXPECT_NEAR(pressed->f_W.z(), 5, 1e-5);

@@ -145,7 +145,9 @@ TEST(Impairment, ARateCapSpacesTheDatagramsAndKeepsTheirOrder) {
   int64_t last = INT64_MIN;
   for (int i = 0; i < 1000; ++i) {
     const Fate fate = impairment.Decide(i * kMs, 100);
-    if (i > 0) EXPECT_GE(fate.release_ns - last, 2 * kMs) << i;
+    if (i > 0) {
+      EXPECT_GE(fate.release_ns - last, 2 * kMs) << i;
+    }
     last = fate.release_ns;
   }
   // the queue builds: the last leaves about 2 s after the first arrival

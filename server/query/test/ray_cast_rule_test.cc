@@ -120,9 +120,13 @@ TEST(RayCastRule, EveryRepresentationAnswersRandomRaysAlike) {
     // outward side), from the surface t = 0 exactly when the ray goes in
     if (start == Start::kInside) {
       EXPECT_EQ(expected.hit, ((a_B + length * direction).cwiseAbs() - kHalf).maxCoeff() >= 0) << i;
-      if (expected.hit) EXPECT_GT(expected.normal_W.dot(-direction), 0) << i;
+      if (expected.hit) {
+        EXPECT_GT(expected.normal_W.dot(-direction), 0) << i;
+      }
     }
-    if (start == Start::kOnSurface && expected.hit) EXPECT_EQ(expected.t, 0) << i;
+    if (start == Start::kOnSurface && expected.hit) {
+      EXPECT_EQ(expected.t, 0) << i;
+    }
   }
   // every kind of start both hits and misses
   for (int k = 0; k < 3; ++k) {

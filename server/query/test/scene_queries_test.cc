@@ -187,7 +187,9 @@ void ExpectSameFeatures(const FeatureSet& got, std::vector<SceneFeature> want, c
     EXPECT_EQ(g.triangle, want[k].triangle) << what;
     EXPECT_NEAR(g.distance, want[k].distance, 1e-12) << what;
     EXPECT_LT((g.point_W - want[k].point_W).norm(), 1e-12) << what;
-    if (want[k].triangle < 0) EXPECT_EQ(g.normal_W, want[k].normal_W) << what;
+    if (want[k].triangle < 0) {
+      EXPECT_EQ(g.normal_W, want[k].normal_W) << what;
+    }
     EXPECT_NEAR(g.normal_W.norm(), 1, 1e-12) << what;
   }
 }
@@ -336,7 +338,9 @@ TEST(SceneQueries, NativeAndEmbreeAgree) {
     if (sweep_a.hit) {
       EXPECT_EQ(sweep_a.object, sweep_b.object) << what;
       EXPECT_EQ(sweep_a.t, sweep_b.t) << what;
-      if (r == 0) EXPECT_EQ(sweep_a.point_W, sweep_b.point_W) << what;
+      if (r == 0) {
+        EXPECT_EQ(sweep_a.point_W, sweep_b.point_W) << what;
+      }
     }
     hits += sweep_a.hit;
     FindFeaturesWithin(*a, c, 0.01, features_a);

@@ -77,7 +77,9 @@ TEST(LocalModelTest, AWholeSmallMeshStaysAClosedSolid) {
   for (double z = 0.02; z > 0.005; z -= 0.0002) {
     input.p_WD = Vector3(0, 0, z);
     const force::TickOutput out = device.Tick(input, 0.001);
-    if (z < 0.0095) EXPECT_GT(out.f_W.z(), 0) << z;
+    if (z < 0.0095) {
+      EXPECT_GT(out.f_W.z(), 0) << z;
+    }
   }
 }
 
@@ -98,7 +100,9 @@ TEST(LocalModelTest, RenderingFromModelsEqualsRenderingFromTheScene) {
     const double t = k * 0.001;
     // down into the ball's top, then along it
     const Vector3 p(0.03 * std::max(t - 0.5, 0.0), 0, 0.11 - 0.02 * std::min(t, 0.5));
-    if (k % 5 == 0) ASSERT_TRUE(device.Accept(CutLocalModel(*scene, p, ModelRadius(0.5, 0.01, 0.005, 0.005), ++version, t), t));
+    if (k % 5 == 0) {
+      ASSERT_TRUE(device.Accept(CutLocalModel(*scene, p, ModelRadius(0.5, 0.01, 0.005, 0.005), ++version, t), t));
+    }
     ASSERT_TRUE(device.Covers(p));
     force::DeviceInput input;
     input.p_WD = p;

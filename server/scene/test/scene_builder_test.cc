@@ -362,7 +362,11 @@ TEST_F(SceneBuilderErrors, MissingObjectsAndSettings) {
   // a bad update of an existing object leaves the old one
   EXPECT_EQ(EditError([](SceneBuilder& b) { b.Update(BoxObject("box", {1, 1, 0})); }),
             "objects[box].shape.half_extents[2] is 0; it must be in (0, 1000] m");
-  EXPECT_EQ(ErrorOf([] { SceneBuilder(SceneSettings{-1}); }),
+  EXPECT_EQ(ErrorOf([] {
+              SceneSettings settings;
+              settings.tolerance = -1;
+              SceneBuilder builder(settings);
+            }),
             "settings.tolerance is -1; it must be a finite number > 0");
   EXPECT_EQ(ErrorOf([&] { builder_.Build(0); }), "version is 0; snapshot versions run from 1 to 2^64 - 2");
 }
@@ -412,7 +416,7 @@ TEST(SceneBuilder, NameIndexAndKinematicListFollowEveryEdit) {
   for (int step = 0; step < 600; ++step) {
     const int op = names.size() < 10 ? 0 : static_cast<int>(random() % 3);
     if (op == 0) {
-      ObjectSpec spec = Sphere("o" + std::to_string(step));
+      ObjectSpec spec = Sphere(std::string("o").append(std::to_string(step)));
       if (random() % 3 == 0) spec.motion = Motion::kKinematic;
       builder.Add(spec);
       names.push_back(spec.name);
