@@ -3,10 +3,11 @@
 //
 // Checks: parsing either throws ScenarioError or gives settings with a finite tolerance
 // > 0 and objects with unique names that are valid UTF-8 (the control channel's replies
-// carry them in protobuf strings; RapidJSON's writer, validating, is the oracle); building those objects either stops at a
-// SceneError or gives a snapshot whose objects pass CheckSnapshot (scene_checks.h). Any
-// other exception escapes and is reported as a crash. Mesh files named by the input are
-// read relative to bench/scenarios (where the seeds' meshes/icosphere.obj is).
+// carry them in protobuf strings; RapidJSON's writer, validating, is the oracle);
+// building those objects either stops at a SceneError or gives a snapshot whose objects
+// pass CheckSnapshot (scene_checks.h). Any other exception escapes and is reported as a
+// crash. Mesh files named by the input are read relative to bench/scenarios (where the
+// seeds' meshes/icosphere.obj is).
 
 #include <cmath>
 #include <set>

@@ -479,20 +479,7 @@ TEST(ControlService, ABatchOfRaysAnswersAsSingleRays) {
   const geometry::TriangleMesh sphere = geometry::MakeIcosphere(6, 0.05);
   for (const auto& [name, x, backend] : {std::tuple{"on_embree", 0.2, v1::RAY_BACKEND_EMBREE},
                                         std::tuple{"on_native", -0.2, v1::RAY_BACKEND_NATIVE}}) {
-    v1::Object object;
-    object.set_name(name);
-    object.mutable_material()->set_stiffness(1000);
-    object.mutable_pose()->mutable_position()->set_x(x);
-    object.set_ray_backend(backend);
-    v1::Mesh* mesh = object.mutable_shape()->mutable_mesh();
-    mesh->set_representation(v1::REPRESENTATION_MESH);
-    for (const auto& v : sphere.vertices()) {
-      for (int k = 0; k < 3; ++k) mesh->add_vertices(v[k]);
-    }
-    for (const auto& t : sphere.triangles()) {
-      for (int k = 0; k < 3; ++k) mesh->add_triangles(t[k]);
-    }
-    ASSERT_TRUE(harness.Call(Add(object)).has_done());
+    ASSERT_TRUE(harness.Call(Add(testing::MeshObject(name, sphere, x, v1::REPRESENTATION_MESH, backend))).has_done());
   }
 
   std::mt19937_64 random(3);
@@ -566,22 +553,10 @@ TEST(ControlService, AQueryOverTheRequestWorkBudgetIsRefused) {
   const std::string over =
       " needs more than 10000 units of work, the most one request may take (--max-request-work; a unit is a "
       "BVH node, a primitive, an object or eight hull vertices or faces); ask it in smaller batches";
-  for (const auto& [name, frequency, representation] :
-       {std::tuple{"ball", 6, v1::REPRESENTATION_MESH}, std::tuple{"hull", 30, v1::REPRESENTATION_CONVEX}}) {
+  for (const auto& [name, frequency, x, representation] : {std::tuple{"ball", 6, 0.5, v1::REPRESENTATION_MESH},
+                                                           std::tuple{"hull", 30, -0.5, v1::REPRESENTATION_CONVEX}}) {
     const geometry::TriangleMesh sphere = geometry::MakeIcosphere(frequency, 0.05);
-    v1::Object object;
-    object.set_name(name);
-    object.mutable_material()->set_stiffness(1000);
-    object.mutable_pose()->mutable_position()->set_x(representation == v1::REPRESENTATION_MESH ? 0.5 : -0.5);
-    v1::Mesh* mesh = object.mutable_shape()->mutable_mesh();
-    mesh->set_representation(representation);
-    for (const auto& v : sphere.vertices()) {
-      for (int k = 0; k < 3; ++k) mesh->add_vertices(v[k]);
-    }
-    for (const auto& t : sphere.triangles()) {
-      for (int k = 0; k < 3; ++k) mesh->add_triangles(t[k]);
-    }
-    ASSERT_TRUE(harness.Call(Add(object)).has_done());
+    ASSERT_TRUE(harness.Call(Add(testing::MeshObject(name, sphere, x, representation))).has_done());
   }
   // rays down through the mesh sphere
   const auto rays_through_the_ball = [](int n) {

@@ -7,8 +7,10 @@
 #include <unistd.h>
 
 #include <optional>
+#include <string>
 #include <vector>
 
+#include "server/geometry/triangle_mesh.h"
 #include "server/net/control_service.h"
 #include "server/net/realtime_channel.h"
 
@@ -29,6 +31,26 @@ inline scene::SceneBuilder MakeTestScene() {
   floor.material.stiffness = 500;
   builder.Add(floor);
   return builder;
+}
+
+// An AddObject's object: mesh at x on the x axis, stiffness 1000 N/m, kept in the given
+// representation and answered by the given backend.
+inline v1::Object MeshObject(const std::string& name, const geometry::TriangleMesh& mesh, double x,
+                             v1::Representation representation, v1::RayBackend backend = v1::RAY_BACKEND_DEFAULT) {
+  v1::Object object;
+  object.set_name(name);
+  object.mutable_material()->set_stiffness(1000);
+  object.mutable_pose()->mutable_position()->set_x(x);
+  object.set_ray_backend(backend);
+  v1::Mesh* out = object.mutable_shape()->mutable_mesh();
+  out->set_representation(representation);
+  for (const auto& v : mesh.vertices()) {
+    for (int k = 0; k < 3; ++k) out->add_vertices(v[k]);
+  }
+  for (const auto& t : mesh.triangles()) {
+    for (int k = 0; k < 3; ++k) out->add_triangles(t[k]);
+  }
+  return object;
 }
 
 struct Harness {

@@ -44,19 +44,8 @@ void AddMeshesAndSphere(Harness& harness) {
   for (const auto& [name, x, backend] : {std::tuple{"on_embree", 0.2, v1::RAY_BACKEND_EMBREE},
                                         std::tuple{"on_native", -0.2, v1::RAY_BACKEND_NATIVE}}) {
     v1::Request add;
-    v1::Object* object = add.mutable_add_object()->mutable_object();
-    object->set_name(name);
-    object->mutable_material()->set_stiffness(1000);
-    object->mutable_pose()->mutable_position()->set_x(x);
-    object->set_ray_backend(backend);
-    v1::Mesh* mesh = object->mutable_shape()->mutable_mesh();
-    mesh->set_representation(v1::REPRESENTATION_MESH);
-    for (const auto& v : ball.vertices()) {
-      for (int k = 0; k < 3; ++k) mesh->add_vertices(v[k]);
-    }
-    for (const auto& t : ball.triangles()) {
-      for (int k = 0; k < 3; ++k) mesh->add_triangles(t[k]);
-    }
+    *add.mutable_add_object()->mutable_object() =
+        testing::MeshObject(name, ball, x, v1::REPRESENTATION_MESH, backend);
     ASSERT_TRUE(harness.Call(add).has_done());
   }
   v1::Request add;

@@ -41,7 +41,8 @@ std::shared_ptr<const scene::SceneSnapshot> RandomScene(std::mt19937_64& random,
       default: shape = MeshOf(geometry::MakeTorus(2 * s, 0.6 * s, 24, 12)); break;
     }
     scene::ObjectSpec spec =
-        MakeObject(std::string("o").append(std::to_string(i)), shape, {coordinate(random), coordinate(random), coordinate(random)}, MakeMaterial(1000));
+        MakeObject(std::string("o").append(std::to_string(i)), shape,
+                   {coordinate(random), coordinate(random), coordinate(random)}, MakeMaterial(1000));
     spec.X_WB.rotation =
         Eigen::AngleAxisd(3 * unit(random), Vector3(unit(random), unit(random), 0.5).normalized()).toRotationMatrix();
     if (std::holds_alternative<scene::MeshSpec>(spec.shape)) {
